@@ -125,6 +125,13 @@ def _genus0_cut(
     path = [a]
     while path[-1] != b:
         path.append(int(pred[path[-1]]))
+    if len(path) == 2:
+        # A one-edge cut does not open a surface (its ends are not split): go one edge on, to
+        # the neighbour of B farthest from A (tiny meshes such as a tetrahedron).
+        nbrs = graph.indices[graph.indptr[b] : graph.indptr[b + 1]]
+        nbrs = nbrs[nbrs != a]
+        dist_a = dijkstra(graph, indices=a)
+        path.append(int(nbrs[_argmax_stable(dist_a[nbrs], radial[nbrs])]))
     return [np.asarray(path, dtype=np.int64)]
 
 
@@ -446,7 +453,10 @@ def _solve_fixed_boundary(
 
 
 def _face_stretch(
-    vertices: NDArray[np.float64], faces: NDArray[np.int64], uv: NDArray[np.float64]
+    vertices: NDArray[np.float64],
+    faces: NDArray[np.int64],
+    uv: NDArray[np.float64],
+    flat: NDArray[np.bool_],
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Sander et al.'s L2 stretch of the map UV -> 3-D per face, and the faces' 3-D areas."""
     q1, q2, q3 = vertices[faces[:, 0]], vertices[faces[:, 1]], vertices[faces[:, 2]]
@@ -454,8 +464,7 @@ def _face_stretch(
     area_uv = _signed_uv_area(uv, faces)
     # A triangle with all three corners on one side of the square has no UV area, whatever the
     # weights: it takes no part in the stretch (its samples come from the boundary chains).
-    flat = area_uv <= 1e-12 / len(faces)
-    area_uv = np.where(flat, 1.0, area_uv)[:, None]
+    area_uv = np.where(flat | (area_uv == 0), 1.0, area_uv)[:, None]
     ds = (
         q1 * (s2[:, 1] - s3[:, 1])[:, None]
         + q2 * (s3[:, 1] - s1[:, 1])[:, None]
@@ -471,6 +480,21 @@ def _face_stretch(
     sigma[flat] = 0.0
     area3[flat] = 0.0
     return sigma, area3
+
+
+def _flat_faces(
+    faces: NDArray[np.int64], boundary: NDArray[np.int64], boundary_uv: NDArray[np.float64]
+) -> NDArray[np.bool_]:
+    """Faces whose three corners are fixed on the same side of the square (zero UV area).
+
+    Decided from the exact boundary positions, not from a computed area, so that it does not
+    depend on rounding (which a rotated copy of the mesh would change).
+    """
+    nv = int(faces.max()) + 1
+    sides = np.zeros((nv, 4), dtype=bool)
+    u, v = boundary_uv[:, 0], boundary_uv[:, 1]
+    sides[boundary] = np.stack([v == 0.0, u == 1.0, v == 1.0, u == 0.0], axis=1)
+    return np.any(sides[faces[:, 0]] & sides[faces[:, 1]] & sides[faces[:, 2]], axis=1)
 
 
 def _stretch_parameterize(
@@ -494,6 +518,7 @@ def _stretch_parameterize(
     and the global stretch of each map.
     """
     nv = len(vertices)
+    flat = _flat_faces(faces, boundary, boundary_uv)
     rows, cols, w = _laplacian_pattern(vertices, faces)
     uv = _solve_fixed_boundary(rows, cols, w, boundary, boundary_uv, nv)
     corner = faces.ravel()
@@ -501,7 +526,7 @@ def _stretch_parameterize(
     best = (np.inf, uv, w)
     power = 2.0
     for it in range(iterations + 1):
-        sigma, area3 = _face_stretch(vertices, faces, uv)
+        sigma, area3 = _face_stretch(vertices, faces, uv, flat)
         total = float(np.sqrt((area3 * sigma**2).sum() / area3.sum()))
         history.append(total)
         if total < best[0]:
@@ -512,7 +537,7 @@ def _stretch_parameterize(
             improved = False
             power *= 0.5
             _, uv, w = best
-            sigma, area3 = _face_stretch(vertices, faces, uv)
+            sigma, area3 = _face_stretch(vertices, faces, uv, flat)
         if it == iterations or (not improved and power < 0.25):
             break
         if improved and good_enough is not None and good_enough(uv):
@@ -580,6 +605,7 @@ def _grid_step(
     origin: NDArray[np.int64],
     n_orig: int,
     graph: sp.csr_matrix,
+    flat: NDArray[np.bool_],
 ) -> NDArray[np.float64]:
     """Per original vertex: the 3-D length one UV unit spans, sqrt(3-D area / UV area).
 
@@ -588,8 +614,7 @@ def _grid_step(
     """
     tri = vertices[faces]
     a3 = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
-    auv = _signed_uv_area(uv, faces)
-    flat = auv <= 1e-12 / len(faces)  # all corners on one side of the square: no samples
+    auv = np.abs(_signed_uv_area(uv, faces))
     a3 = np.where(flat, 0.0, a3)
     auv = np.where(flat, 0.0, auv)
     corner = origin[faces].ravel()
@@ -675,7 +700,9 @@ def mesh_to_geometry_image(
         paths = _genus0_cut(v, f, graph)
     else:
         paths = _disk_cut(v, f)
-    diag = float(np.linalg.norm(v.max(axis=0) - v.min(axis=0)))
+    # Scale for the stretch threshold: the diameter of the centroid-centred bounding sphere.
+    # (The bounding-box diagonal would do, but it changes when the mesh is rotated.)
+    diameter = 2.0 * float(radial.max())
     rounds = 0
     best = None
     while True:
@@ -692,9 +719,12 @@ def mesh_to_geometry_image(
         vs, fs, loop, unit, origin_s = _split_corners(vc, fc, origin, chains, n)
         on_cut = np.zeros(len(v), dtype=bool)
         on_cut[origin_s[loop]] = True
+        flat = _flat_faces(fs, loop, _unit_to_uv(unit, n))
 
-        def local_stretch(uv: NDArray, vs=vs, fs=fs, origin_s=origin_s, on_cut=on_cut) -> NDArray:
-            s = _grid_step(vs, fs, uv, origin_s, len(v), graph) / diag
+        def local_stretch(
+            uv: NDArray, vs=vs, fs=fs, origin_s=origin_s, on_cut=on_cut, flat=flat
+        ) -> NDArray:
+            s = _grid_step(vs, fs, uv, origin_s, len(v), graph, flat) / diameter
             s[on_cut] = 0.0
             return s
 
@@ -770,8 +800,8 @@ def mesh_to_geometry_image(
             "cut_paths": n_paths,
             "cut_rounds": rounds,
             "stretch_iterations": len(stretch_history) - 1,
-            "stretch": stretch_history[-1],
-            "stretch_initial": stretch_history[0],
+            "stretch_rel": min(stretch_history) / diameter,
+            "stretch_initial_rel": stretch_history[0] / diameter,
             "flipped_triangles": flipped,
             "degenerate_uv_triangles": degenerate,
             "welded_samples": int(np.sum(weld.ravel() != np.arange(n * n))),

@@ -1,0 +1,35 @@
+"""Shared fixtures: the bundled meshes, read once per session."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from meshwm.io import read_mesh
+
+ASSETS = Path(__file__).parent.parent / "assets"
+
+
+@pytest.fixture(scope="session")
+def assets_dir() -> Path:
+    return ASSETS
+
+
+@pytest.fixture(scope="session")
+def spot_mesh() -> tuple[np.ndarray, np.ndarray]:
+    """Closed genus-0 cow (public domain, Keenan Crane)."""
+    return read_mesh(ASSETS / "spot.ply")
+
+
+@pytest.fixture(scope="session")
+def kitten_mesh() -> tuple[np.ndarray, np.ndarray]:
+    """Closed genus-1 kitten."""
+    return read_mesh(ASSETS / "kitten.ply")
+
+
+@pytest.fixture(scope="session")
+def plane_mesh() -> tuple[np.ndarray, np.ndarray]:
+    """Open plane with 27 cut-out windows."""
+    return read_mesh(ASSETS / "plane_holes.ply")
