@@ -1,0 +1,7 @@
+"""``python -m meshwm ...``: the same as the ``meshwm`` command."""
+
+import sys
+
+from meshwm.cli import main
+
+sys.exit(main())
