@@ -61,6 +61,7 @@ def check_mesh(
             np.issubdtype(f.dtype, np.floating)
             and np.all(np.isfinite(f))
             and np.all(f == np.round(f))
+            and np.all(np.abs(f) < 2.0**62)
         ):
             f = f.astype(np.int64)
         else:

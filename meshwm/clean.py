@@ -167,14 +167,15 @@ def _radial_pairs(
     faces: NDArray[np.int64],
     edge: NDArray[np.int64],
     corner_edges: NDArray[np.int64],
-) -> list[tuple[int, int]] | None:
-    """Pair the faces around one edge shared by more than two faces, or return None.
+) -> list[list[tuple[int, int]]] | None:
+    """Candidate pairings of the faces around an edge of more than two faces, or None.
 
-    The faces are sorted by angle around the edge.  Two radially adjacent faces are paired when
-    the wedge between them is *inside* the surface: the face before it runs the edge backwards
-    and the face after it forwards, so both normals point away from the wedge.  This is how two
-    closed sheets that touch along an edge (a pinch) separate again.  Anything else (an odd
-    number of faces, a fan) has no manifold reading.
+    The faces are sorted by angle around the edge and paired without crossing, each face with
+    one running the edge the other way.  There are at most two such matchings (pairing across
+    the wedges inside the surface, or across those outside); both are returned, and the caller
+    keeps the one that pairs faces of the same sheet.  This is how two closed sheets that touch
+    along an edge (a pinch) separate again.  Anything else (an odd number of faces, a fan) has
+    no manifold reading: None.
     """
     a, b = int(edge[0]), int(edge[1])
     e = vertices[b] - vertices[a]
@@ -197,8 +198,9 @@ def _radial_pairs(
     if d.sum() * 2 != len(d):
         return None
     n = len(order)
-    # A non-crossing matching of opposite runs around the circle is a bracket matching.  Prefer
-    # brackets that open on a backward face (the wedge they close is inside the surface).
+    # A non-crossing matching of opposite runs around the circle is a bracket matching; there
+    # are at most two families (brackets opening on backward or on forward faces).
+    candidates = []
     for opener in (False, True):
         for offset in range(n):
             stack: list[int] = []
@@ -214,8 +216,30 @@ def _radial_pairs(
                 else:
                     break
             if len(pairs) * 2 == n:
-                return pairs
-    return None
+                candidates.append(pairs)
+                break
+    return candidates or None
+
+
+def _corner_labels(
+    faces: NDArray[np.int64], first: NDArray[np.int64], second: NDArray[np.int64]
+) -> tuple[int, NDArray[np.int64]]:
+    """Groups of face corners joined through the glued corner-edge pairs (first[k], second[k])."""
+    m = len(faces)
+    corner_a = np.arange(3 * m)
+    corner_b = (np.arange(m)[:, None] * 3 + (np.arange(3)[None, :] + 1) % 3).reshape(-1)
+    ca1, cb1, ca2, cb2 = corner_a[first], corner_b[first], corner_a[second], corner_b[second]
+    flat = faces.reshape(-1)
+    rows, cols = [], []
+    for c1 in (ca1, cb1):
+        for c2 in (ca2, cb2):
+            hit = flat[c1] == flat[c2]
+            rows.append(c1[hit])
+            cols.append(c2[hit])
+    rows_a = np.concatenate(rows)
+    cols_a = np.concatenate(cols)
+    graph = sp.coo_matrix((np.ones(len(rows_a)), (rows_a, cols_a)), shape=(3 * m, 3 * m)).tocsr()
+    return connected_components(graph, directed=False)
 
 
 def _rebuild_connectivity(
@@ -233,8 +257,6 @@ def _rebuild_connectivity(
     m = len(faces)
     edges, inverse = unique_edges(faces)
     count = np.bincount(inverse, minlength=len(edges))
-    corner_a = np.arange(3 * m)
-    corner_b = (np.arange(m)[:, None] * 3 + (np.arange(3)[None, :] + 1) % 3).reshape(-1)
     order = np.argsort(inverse, kind="stable")
     sorted_edge = inverse[order]
     two = count[sorted_edge[:-1]] == 2
@@ -243,34 +265,38 @@ def _rebuild_connectivity(
     resolved = 0
     heavy = np.flatnonzero(count > 2)
     if len(heavy):
+        # Sheets glued along ordinary edges only: a pair of faces of the same sheet shares a
+        # corner group at the edge's first vertex.
+        _, pre = _corner_labels(faces, first, second)
+        flat = faces.reshape(-1)
         starts = np.searchsorted(sorted_edge, heavy)
         extra1, extra2 = [], []
         for edge_id, s in zip(heavy.tolist(), starts.tolist(), strict=True):
-            pairs = _radial_pairs(vertices, faces, edges[edge_id], order[s : s + count[edge_id]])
-            if pairs is None:
+            a = int(edges[edge_id][0])
+            options = _radial_pairs(vertices, faces, edges[edge_id], order[s : s + count[edge_id]])
+            if options is None:
                 raise MeshError(
                     f"mesh has {len(heavy)} non-manifold edges (shared by more than two faces, "
-                    f"first between vertices {edges[edge_id][0]} and {edges[edge_id][1]}); "
+                    f"first between vertices {a} and {edges[edge_id][1]}); "
                     "repair it first, e.g. MeshLab 'Repair non Manifold Edges'"
                 )
-            for p, q in pairs:
+
+            def corner_at_a(corner_edge: int, a: int = a) -> int:
+                base = 3 * (corner_edge // 3)
+                return base + int(np.flatnonzero(flat[base : base + 3] == a)[0])
+
+            score = [
+                sum(pre[corner_at_a(p)] == pre[corner_at_a(q)] for p, q in pairs)
+                for pairs in options
+            ]
+            for p, q in options[int(np.argmax(score))]:
                 extra1.append(p)
                 extra2.append(q)
             resolved += 1
         first = np.concatenate([first, np.asarray(extra1, dtype=np.int64)])
         second = np.concatenate([second, np.asarray(extra2, dtype=np.int64)])
-    ca1, cb1, ca2, cb2 = corner_a[first], corner_b[first], corner_a[second], corner_b[second]
+    n_groups, labels = _corner_labels(faces, first, second)
     flat = faces.reshape(-1)
-    rows, cols = [], []
-    for c1 in (ca1, cb1):
-        for c2 in (ca2, cb2):
-            hit = flat[c1] == flat[c2]
-            rows.append(c1[hit])
-            cols.append(c2[hit])
-    rows_a = np.concatenate(rows)
-    cols_a = np.concatenate(cols)
-    graph = sp.coo_matrix((np.ones(len(rows_a)), (rows_a, cols_a)), shape=(3 * m, 3 * m)).tocsr()
-    n_groups, labels = connected_components(graph, directed=False)
     if n_groups == len(vertices):
         return vertices, faces, 0, resolved
     group_vertex = np.zeros(n_groups, dtype=np.int64)
@@ -389,7 +415,14 @@ def clean_mesh(
     n_comp = labels.max() + 1
     comp_area = np.bincount(labels, weights=area, minlength=n_comp)
     comp_size = np.bincount(labels, minlength=n_comp)
-    best = int(np.lexsort((-comp_size, -comp_area))[0])
+    # Component of each vertex's lexicographically smallest position (order-free tie-break).
+    face_of_vertex = np.zeros(len(v), dtype=np.int64)
+    face_of_vertex[f.ravel()] = np.repeat(labels, 3)
+    lex_rank = np.empty(len(v), dtype=np.int64)
+    lex_rank[np.lexsort(v.T[::-1])] = np.arange(len(v))
+    comp_first = np.full(n_comp, len(v), dtype=np.int64)
+    np.minimum.at(comp_first, face_of_vertex, lex_rank)
+    best = int(np.lexsort((comp_first, -comp_size, -comp_area))[0])
     main = labels == best
     mv, mf, _ = _drop_unreferenced(v, f[main])
     if len(mf) < min_faces:
