@@ -505,6 +505,7 @@ def _stretch_parameterize(
     *,
     iterations: int,
     good_enough=None,
+    accept=None,
 ) -> tuple[NDArray[np.float64], list[float]]:
     """Harmonic map, then stretch-minimising reweighting (Yoshizawa, Belyaev, Seidel 2004).
 
@@ -515,12 +516,16 @@ def _stretch_parameterize(
     protrusions (a cow's legs) exponentially, which starves them of grid samples; this pulls UV
     area back to where the surface is.  Stops after ``iterations`` or when the global stretch
     no longer falls by 1 %, or as soon as ``good_enough(uv)`` holds, and returns the best map
-    and the global stretch of each map.
+    and the global stretch of each map.  If ``accept(uv)`` holds for the harmonic map itself,
+    that map is returned as it is (a surface it already samples evenly needs no reweighting).
     """
     nv = len(vertices)
     flat = _flat_faces(faces, boundary, boundary_uv)
     rows, cols, w = _laplacian_pattern(vertices, faces)
     uv = _solve_fixed_boundary(rows, cols, w, boundary, boundary_uv, nv)
+    if accept is not None and accept(uv):
+        sigma, area3 = _face_stretch(vertices, faces, uv, flat)
+        return uv, [float(np.sqrt((area3 * sigma**2).sum() / area3.sum()))]
     corner = faces.ravel()
     history: list[float] = []
     best = (np.inf, uv, w)
@@ -640,7 +645,8 @@ def mesh_to_geometry_image(
     max_faces: int = 5_000_000,
     stretch_iterations: int = 10,
     max_stretch: float = 1.25,
-    max_rounds: int = 3,
+    max_rounds: int = 5,
+    accept_uniformity: float = 3.0,
 ) -> GeometryImage:
     """Resample a triangle mesh onto a regular ``size × size`` grid (a geometry image).
 
@@ -703,6 +709,13 @@ def mesh_to_geometry_image(
     # Scale for the stretch threshold: the diameter of the centroid-centred bounding sphere.
     # (The bounding-box diagonal would do, but it changes when the mesh is rotated.)
     diameter = 2.0 * float(radial.max())
+    # Spacing of samples spread evenly over the surface (the unit square has area 1).
+    tri = v[f]
+    uniform = float(
+        np.sqrt(
+            np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1).sum() / 2
+        )
+    )
     rounds = 0
     best = None
     while True:
@@ -728,6 +741,10 @@ def mesh_to_geometry_image(
             s[on_cut] = 0.0
             return s
 
+        def first_round_accept(uv: NDArray, local_stretch=local_stretch) -> bool:
+            # The plain harmonic map of the first cut samples evenly enough: keep it.
+            return local_stretch(uv).max() * diameter / uniform <= accept_uniformity
+
         uv, stretch_history = _stretch_parameterize(
             vs,
             fs,
@@ -735,12 +752,14 @@ def mesh_to_geometry_image(
             _unit_to_uv(unit, n),
             iterations=stretch_iterations,
             good_enough=lambda uv: local_stretch(uv).max() <= max_stretch,
+            accept=first_round_accept if rounds == 0 else None,
         )
         step = local_stretch(uv)
         state = (float(step.max()), rounds, chains, vs, fs, uv, stretch_history, len(paths))
         if best is None or state[0] < best[0]:
             best = state
-        if step.max() <= max_stretch or rounds >= max_rounds:
+        accepted = rounds == 0 and len(stretch_history) == 1 and first_round_accept(uv)
+        if accepted or step.max() <= max_stretch or rounds >= max_rounds or rounds - best[1] >= 2:
             break
         rounds += 1
         # Open every undersampled region at its tip: for each connected region of vertices whose
