@@ -841,16 +841,30 @@ def _count_loops(n_vertices: int, edges: NDArray[np.int64], border: NDArray[np.b
 
 
 def grid_faces(n: int) -> NDArray[np.int64]:
-    """The two triangles of every grid cell, counter-clockwise in (u, v).
+    """The two triangles of every grid cell, counter-clockwise in (u, v), diagonals alternating.
 
     Cell (i, j) has corners ``p00 = i*N + j``, ``p01 = p00 + 1``, ``p10 = p00 + N`` and
-    ``p11 = p10 + 1``; its triangles are (p00, p01, p11) and (p00, p11, p10).
+    ``p11 = p10 + 1``.  Where i + j is even its diagonal is p00-p11, triangles (p00, p01, p11)
+    and (p00, p11, p10); where it is odd the diagonal is p01-p10, triangles (p00, p01, p10)
+    and (p01, p11, p10).
+
+    Notes
+    -----
+    Alternating diagonals (a "4-8" triangulation) make the grid readable from connectivity
+    alone: samples with i + j even have 8 neighbours, the others 4, and an edge is a diagonal
+    exactly when it joins two even samples.  With every diagonal the same way, the triangles
+    would form the regular triangular lattice, whose six edge directions connectivity cannot
+    tell apart.  Blind extraction (issue #3) relies on this.  (A welded cut seam joins samples of
+    the same parity when its two sides start on perimeter positions of matching parity; the
+    boundary allocation does not enforce that yet: forcing even steps on every chain cost up to
+    a factor 3 in Hausdorff distance on the development meshes, see docs/geometry_image.md.)
     """
     i, j = np.meshgrid(np.arange(n - 1), np.arange(n - 1), indexing="ij")
     p00 = (i * n + j).ravel()
     p01, p10, p11 = p00 + 1, p00 + n, p00 + n + 1
-    t1 = np.stack([p00, p01, p11], axis=1)
-    t2 = np.stack([p00, p11, p10], axis=1)
+    even = ((i + j) % 2 == 0).ravel()[:, None]
+    t1 = np.where(even, np.stack([p00, p01, p11], axis=1), np.stack([p00, p01, p10], axis=1))
+    t2 = np.where(even, np.stack([p00, p11, p10], axis=1), np.stack([p01, p11, p10], axis=1))
     return np.stack([t1, t2], axis=1).reshape(-1, 3).astype(np.int64)
 
 

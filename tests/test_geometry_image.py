@@ -38,13 +38,31 @@ def spot_gim(spot_mesh):
 
 
 def test_grid_faces_cover_every_cell_counter_clockwise():
-    n = 5
+    n = 6
     f = grid_faces(n)
     assert f.shape == (2 * (n - 1) ** 2, 3)
     uv = np.stack(np.meshgrid(np.arange(n), np.arange(n)), axis=-1).reshape(-1, 2)
     a, b, c = uv[f[:, 0]], uv[f[:, 1]], uv[f[:, 2]]
     cross = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
-    assert np.all(cross > 0)
+    assert np.all(cross == 1)  # every triangle is half a unit cell, counter-clockwise
+
+
+def test_grid_diagonals_alternate_so_connectivity_shows_the_grid():
+    """Interior samples with i + j even have 8 neighbours, the others 4 (a 4-8 mesh)."""
+    n = 8
+    f = grid_faces(n)
+    edges = np.unique(
+        np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), 1), axis=0
+    )
+    valence = np.bincount(edges.ravel(), minlength=n * n).reshape(n, n)
+    i, j = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
+    inner = (i > 0) & (i < n - 1) & (j > 0) & (j < n - 1)
+    assert np.all(valence[inner & ((i + j) % 2 == 0)] == 8)
+    assert np.all(valence[inner & ((i + j) % 2 == 1)] == 4)
+    parity = ((i + j) % 2).ravel()
+    diagonal = np.abs(edges[:, 0] // n - edges[:, 1] // n) == 1
+    diagonal &= np.abs(edges[:, 0] % n - edges[:, 1] % n) == 1
+    assert np.array_equal(diagonal, (parity[edges[:, 0]] == 0) & (parity[edges[:, 1]] == 0))
 
 
 def test_shape_dtype_and_no_nan(spot_gim):
