@@ -3,13 +3,17 @@
 The data flow, one module per stage (imports only go downstream):
 
 ``io`` (files) -> ``clean`` (one manifold component) -> ``geometry_image`` (N×N grid) ->
-``metrics`` (distances between meshes) -> ``cli``.
+``wavelet`` (Haar multi-resolution representation) -> ``metrics`` (distances) -> ``cli``;
+the mark itself: ``mark`` (binary images) -> ``scramble`` (Arnold transform).
 """
 
 from meshwm._validate import MeshError
 from meshwm.clean import CleanMesh, clean_mesh
 from meshwm.geometry_image import GeometryImage, geometry_image_to_mesh, mesh_to_geometry_image
 from meshwm.io import read_mesh, write_mesh
+from meshwm.mark import default_mark, load_mark, save_mark
+from meshwm.scramble import arnold_period, arnold_scramble, arnold_unscramble
+from meshwm.wavelet import dyadic_decompose, dyadic_reconstruct, mrr_decompose, mrr_reconstruct
 
 __version__ = "0.1.0"
 
@@ -18,9 +22,19 @@ __all__ = [
     "GeometryImage",
     "MeshError",
     "__version__",
+    "arnold_period",
+    "arnold_scramble",
+    "arnold_unscramble",
     "clean_mesh",
+    "default_mark",
+    "dyadic_decompose",
+    "dyadic_reconstruct",
     "geometry_image_to_mesh",
+    "load_mark",
     "mesh_to_geometry_image",
+    "mrr_decompose",
+    "mrr_reconstruct",
     "read_mesh",
+    "save_mark",
     "write_mesh",
 ]

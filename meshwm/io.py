@@ -21,7 +21,6 @@ import logging
 import os
 import re
 import struct
-import tempfile
 import warnings
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
@@ -32,6 +31,7 @@ import numpy as np
 import trimesh
 from numpy.typing import NDArray
 
+from meshwm._atomic import write_atomic
 from meshwm._validate import DEFAULT_MAX_FACES, MeshError, check_mesh
 
 __all__ = [
@@ -713,13 +713,6 @@ def check_output_suffix(path: PathLike) -> None:
         raise _error(path, f"cannot write {what}; valid output suffixes are {valid}")
 
 
-def _new_file_mode() -> int:
-    """Permission bits a newly created file gets under the current umask."""
-    umask = os.umask(0o022)
-    os.umask(umask)
-    return 0o666 & ~umask
-
-
 def write_mesh(
     path: PathLike,
     vertices: NDArray,
@@ -783,43 +776,7 @@ def write_mesh(
     except MeshError as exc:
         raise _error(path, str(exc)) from None
 
-    target = os.path.abspath(os.fspath(path))
-    directory = os.path.dirname(target)
     try:
-        mode = os.stat(target).st_mode & 0o7777 if os.path.isfile(target) else _new_file_mode()
-        stream = tempfile.NamedTemporaryFile(
-            mode="wb", dir=directory, prefix=f".{os.path.basename(target)}.", suffix=".tmp",
-            delete=False,
-        )  # fmt: skip
+        write_atomic(path, payload)
     except OSError as exc:
         raise _error(path, f"cannot write file ({exc.strerror or _describe(exc)})") from exc
-    temp_name = stream.name
-    try:
-        with stream:
-            stream.write(payload)
-            stream.flush()
-            os.fsync(stream.fileno())
-        os.chmod(temp_name, mode)
-        os.replace(temp_name, target)
-    except BaseException as exc:
-        with contextlib.suppress(OSError):
-            os.unlink(temp_name)
-        if isinstance(exc, OSError):
-            raise _error(path, f"cannot write file ({exc.strerror or _describe(exc)})") from exc
-        raise
-    _fsync_directory(directory)
-
-
-def _fsync_directory(directory: str) -> None:
-    """Make the rename durable where the platform allows (best effort)."""
-    flags = os.O_RDONLY | getattr(os, "O_DIRECTORY", 0)
-    try:
-        fd = os.open(directory, flags)
-    except OSError:
-        return
-    try:
-        os.fsync(fd)
-    except OSError:
-        pass
-    finally:
-        os.close(fd)
