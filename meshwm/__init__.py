@@ -3,12 +3,14 @@
 The data flow, one module per stage (imports only go downstream):
 
 ``io`` (files) -> ``clean`` (one manifold component) -> ``geometry_image`` (N×N grid) ->
-``wavelet`` (Haar multi-resolution representation) -> ``metrics`` (distances) -> ``cli``;
+``wavelet`` (Haar multi-resolution representation) -> ``fuzzy`` (perceptual mask) ->
+``metrics`` (distances) -> ``cli``;
 the mark itself: ``mark`` (binary images) -> ``scramble`` (Arnold transform).
 """
 
 from meshwm._validate import MeshError
 from meshwm.clean import CleanMesh, clean_mesh
+from meshwm.fuzzy import infer_strength, strength_class
 from meshwm.geometry_image import GeometryImage, geometry_image_to_mesh, mesh_to_geometry_image
 from meshwm.io import read_mesh, write_mesh
 from meshwm.mark import default_mark, load_mark, save_mark
@@ -30,11 +32,13 @@ __all__ = [
     "dyadic_decompose",
     "dyadic_reconstruct",
     "geometry_image_to_mesh",
+    "infer_strength",
     "load_mark",
     "mesh_to_geometry_image",
     "mrr_decompose",
     "mrr_reconstruct",
     "read_mesh",
     "save_mark",
+    "strength_class",
     "write_mesh",
 ]
