@@ -31,13 +31,10 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
-import platform
 import statistics
 import sys
 import time
 import warnings
-from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 
 REPO_ROOT = Path(__file__).resolve().parent.parent
@@ -52,6 +49,7 @@ except ImportError:
     sys.path.insert(0, str(REPO_ROOT))
 
 import numpy as np  # noqa: E402
+from _machine import machine_info  # noqa: E402
 from skfuzzy import control  # noqa: E402
 
 from meshwm.fuzzy import (  # noqa: E402
@@ -76,25 +74,6 @@ def reference_weights(points: np.ndarray) -> tuple[np.ndarray, float]:
             out[i] = simulation.output["weight"]
         seconds = time.perf_counter() - start
     return out, seconds
-
-
-def _version(name: str) -> str:
-    try:
-        return version(name)
-    except PackageNotFoundError:
-        return "not installed"
-
-
-def machine_info() -> dict:
-    uname = platform.uname()
-    return {
-        "cpu_count": os.cpu_count(),
-        "processor": platform.processor() or uname.machine,
-        "uname": f"{uname.system} {uname.release} {uname.machine}",
-        "python": platform.python_version(),
-        "numpy": np.__version__,
-        "scikit-fuzzy": _version("scikit-fuzzy"),
-    }
 
 
 def bench(points: int, reference_points: int, repeats: int, seed: int) -> dict:
@@ -186,7 +165,7 @@ def main(argv: list[str] | None = None) -> int:
         if getattr(args, name) < 1:
             parser.error(f"--{name.replace('_', '-')} must be at least 1")
 
-    machine = machine_info()
+    machine = machine_info("scikit-fuzzy")
     row = bench(args.points, args.reference_points, args.repeats, args.seed)
     print_results(machine, row)
     if args.json is not None:

@@ -37,13 +37,10 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
-import platform
 import statistics
 import sys
 import tempfile
 import time
-from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 
 REPO_ROOT = Path(__file__).resolve().parent.parent
@@ -58,6 +55,7 @@ except ImportError:
 
 import igl  # noqa: E402
 import numpy as np  # noqa: E402
+from _machine import machine_info  # noqa: E402
 
 from meshwm import geometry_image as gi  # noqa: E402
 from meshwm import io as mio  # noqa: E402
@@ -134,36 +132,6 @@ def floor_once(path: Path, b: np.ndarray, bc: np.ndarray) -> float:
     f = np.ascontiguousarray(f, dtype=np.int64)
     igl.harmonic(v, f, b, bc, 1)
     return time.perf_counter() - t0
-
-
-def _version(name: str) -> str:
-    try:
-        return version(name)
-    except PackageNotFoundError:
-        return "not installed"
-
-
-def machine_info() -> dict:
-    cpu = platform.processor()
-    if not cpu:
-        try:
-            with open("/proc/cpuinfo", encoding="utf-8") as stream:
-                cpu = next(
-                    (ln.split(":", 1)[1].strip() for ln in stream if ln.startswith("model name")),
-                    "",
-                )
-        except OSError:
-            cpu = ""
-    uname = platform.uname()
-    return {
-        "cpu_count": os.cpu_count(),
-        "processor": cpu or uname.machine,
-        "uname": f"{uname.system} {uname.release} {uname.machine}",
-        "python": platform.python_version(),
-        "numpy": np.__version__,
-        "libigl": _version("libigl"),
-        "scipy": _version("scipy"),
-    }
 
 
 def bench(path: Path, sizes: list[int], repeats: int) -> list[dict]:
@@ -296,7 +264,7 @@ def main(argv: list[str] | None = None) -> int:
     path = args.mesh if args.mesh is not None else largest_mesh(args.meshes)
     if not path.is_file():
         parser.error(f"no such mesh file: {path}")
-    machine = machine_info()
+    machine = machine_info("libigl", "scipy")
     rows = bench(path, args.sizes, args.repeats)
     print_results(machine, rows)
     if args.json is not None:
