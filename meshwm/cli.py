@@ -19,7 +19,7 @@ from pathlib import Path
 from meshwm import __version__
 from meshwm._validate import DEFAULT_MAX_FACES, check_square_pow2
 from meshwm.geometry_image import geometry_image_to_mesh, mesh_to_geometry_image
-from meshwm.io import READ_SUFFIXES, WRITE_SUFFIXES, check_output_suffix, read_mesh, write_mesh
+from meshwm.io import READ_SUFFIXES, WRITE_SUFFIXES, check_output, read_mesh, write_mesh
 from meshwm.metrics import surface_distance
 
 __all__ = ["main"]
@@ -100,14 +100,7 @@ def _build_parser() -> argparse.ArgumentParser:
 
 def _run_remesh(args: argparse.Namespace) -> int:
     started = time.perf_counter()
-    check_output_suffix(args.output)
-    if (
-        args.output.exists()
-        and args.input.exists()
-        and os.path.samefile(args.output, args.input)
-        and not args.force
-    ):
-        raise ValueError(f"{args.output}: would overwrite the input; use --force")
+    check_output(args.output, overwrite_input=args.input, force=args.force)
     vertices, faces = read_mesh(args.input, max_faces=args.max_faces)
     gi = mesh_to_geometry_image(vertices, faces, size=args.size, max_faces=args.max_faces)
     out_v, out_f = geometry_image_to_mesh(

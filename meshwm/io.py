@@ -37,6 +37,7 @@ from meshwm._validate import DEFAULT_MAX_FACES, MeshError, check_mesh
 __all__ = [
     "READ_SUFFIXES",
     "WRITE_SUFFIXES",
+    "check_output",
     "check_output_suffix",
     "read_mesh",
     "write_mesh",
@@ -713,6 +714,31 @@ def check_output_suffix(path: PathLike) -> None:
         raise _error(path, f"cannot write {what}; valid output suffixes are {valid}")
 
 
+def check_output(
+    path: PathLike, *, overwrite_input: PathLike | None = None, force: bool = False
+) -> None:
+    """Raise early if :func:`write_mesh` would refuse to write ``path``.
+
+    Checks the suffix (:func:`check_output_suffix`) and, unless ``force``, that ``path`` is not
+    the same file as ``overwrite_input`` (:func:`os.path.samefile`, so links and relative paths
+    count).  The CLI calls it before any expensive work; :func:`write_mesh` calls it again.
+
+    Raises
+    ------
+    MeshError
+        Unsupported suffix, or the output would overwrite the input.
+    """
+    check_output_suffix(path)
+    if (
+        overwrite_input is not None
+        and not force
+        and os.path.exists(path)
+        and os.path.exists(overwrite_input)
+        and os.path.samefile(path, overwrite_input)
+    ):
+        raise _error(path, "would overwrite the input; use --force")
+
+
 def write_mesh(
     path: PathLike,
     vertices: NDArray,
@@ -757,19 +783,11 @@ def write_mesh(
     reading it back gives rounded, un-indexed vertices.  A new file gets the usual
     permissions (``0o666`` minus the umask); an overwritten one keeps its permissions.
     """
-    check_output_suffix(path)
+    check_output(path, overwrite_input=overwrite_input, force=force)
     try:
         vertices, faces = check_mesh(vertices, faces, max_faces=np.iinfo(np.int64).max)
     except MeshError as exc:
         raise _error(path, f"cannot write: {exc}") from None
-    if (
-        overwrite_input is not None
-        and not force
-        and os.path.exists(path)
-        and os.path.exists(overwrite_input)
-        and os.path.samefile(path, overwrite_input)
-    ):
-        raise _error(path, "would overwrite the input; use --force")
 
     try:
         payload = _WRITERS[Path(path).suffix.lower()](vertices, faces)
