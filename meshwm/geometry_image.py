@@ -161,16 +161,18 @@ def _disk_cut(vertices: NDArray[np.float64], faces: NDArray[np.int64]) -> list[N
     return [order[np.asarray(c, dtype=np.int64)] for c in cuts]
 
 
+def _path_edges(paths: list[NDArray[np.int64]]) -> NDArray[np.int64]:
+    """The edges (pairs of vertex indices) along a list of vertex paths."""
+    edges = [np.stack([p[:-1], p[1:]], axis=1) for p in paths if len(p) >= 2]
+    return np.concatenate(edges) if edges else np.zeros((0, 2), dtype=np.int64)
+
+
 def _cut_flags(faces: NDArray[np.int64], paths: list[NDArray[np.int64]]) -> NDArray[np.bool_]:
     """(m, 3) flags: face edge k (from corner k to k+1) lies on a cut path."""
-    cut_edges = []
-    for p in paths:
-        if len(p) >= 2:
-            cut_edges.append(np.stack([p[:-1], p[1:]], axis=1))
     flags = np.zeros(faces.shape, dtype=bool)
-    if not cut_edges:
+    ce = np.sort(_path_edges(paths), axis=1)
+    if len(ce) == 0:
         return flags
-    ce = np.sort(np.concatenate(cut_edges), axis=1)
     n = faces.max() + 1
     cut_keys = np.unique(ce[:, 0] * n + ce[:, 1])
     for k in range(3):
@@ -758,7 +760,11 @@ def mesh_to_geometry_image(
         state = (float(step.max()), rounds, chains, vs, fs, uv, stretch_history, len(paths))
         if best is None or state[0] < best[0]:
             best = state
-        accepted = rounds == 0 and len(stretch_history) == 1 and first_round_accept(uv)
+        accepted = (
+            rounds == 0
+            and len(stretch_history) == 1
+            and step.max() * diameter / uniform <= accept_uniformity
+        )
         if accepted or step.max() <= max_stretch or rounds >= max_rounds or rounds - best[1] >= 2:
             break
         rounds += 1
@@ -814,7 +820,7 @@ def mesh_to_geometry_image(
             "euler_characteristic": int(chi),
             "boundary_loops": n_loops,
             "genus": int(genus),
-            "cut_edges": int(flags.sum() // 2 + 0),
+            "cut_edges": int(np.unique(np.sort(_path_edges(paths), axis=1), axis=0).shape[0]),
             "chains": len(chains.chain_steps),
             "cut_paths": n_paths,
             "cut_rounds": rounds,
