@@ -271,6 +271,17 @@ _add("ply_bin_trailing_garbage", "trailing.ply", lambda: _spot().data + b"\0\1\2
 
 # binary PLY header flips ----------------------------------------------------------------------
 
+
+def _add_header_edits(case_prefix: str, file_prefix: str, edits: dict) -> None:
+    """One case per edit: the spot PLY with one header string replaced."""
+    for label, (old, new) in edits.items():
+        _add(
+            f"{case_prefix}_{label}",
+            f"{file_prefix}_{label}.ply",
+            lambda o=old, n=new: _replace_once(_spot().data, o, n),
+        )
+
+
 _HEADER_EDITS = {
     "magic": (b"ply\n", b"plz\n"),
     "format_keyword": (b"format ", b"formas "),
@@ -288,12 +299,7 @@ _HEADER_EDITS = {
     "vertex_count_minus_ten": (b"element vertex 2930", b"element vertex 2920"),
     "face_count_plus_one": (b"element face 5856", b"element face 5857"),
 }
-for _label, (_old, _new) in _HEADER_EDITS.items():
-    _add(
-        f"ply_bin_header_flip_{_label}",
-        f"hflip_{_label}.ply",
-        lambda o=_old, n=_new: _replace_once(_spot().data, o, n),
-    )
+_add_header_edits("ply_bin_header_flip", "hflip", _HEADER_EDITS)
 
 # binary PLY face-block flips ------------------------------------------------------------------
 
@@ -381,12 +387,7 @@ _COUNT_EDITS = {
     "vertex_negative": (b"element vertex 2930", b"element vertex -2930"),
     "face_non_numeric": (b"element face 5856", b"element face lots"),
 }
-for _label, (_old, _new) in _COUNT_EDITS.items():
-    _add(
-        f"ply_bin_count_{_label}",
-        f"count_{_label}.ply",
-        lambda o=_old, n=_new: _replace_once(_spot().data, o, n),
-    )
+_add_header_edits("ply_bin_count", "count", _COUNT_EDITS)
 
 # ASCII PLY ------------------------------------------------------------------------------------
 
