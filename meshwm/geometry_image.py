@@ -58,6 +58,7 @@ from meshwm.clean import clean_mesh, edge_topology_counts, unique_edges
 
 __all__ = [
     "GeometryImage",
+    "fiducial_cells",
     "geometry_image_to_mesh",
     "grid_faces",
     "mesh_to_geometry_image",
@@ -846,29 +847,47 @@ def _count_loops(n_vertices: int, edges: NDArray[np.int64], border: NDArray[np.b
     return len(np.unique(labels[np.unique(b)]))
 
 
+def fiducial_cells(n: int) -> NDArray[np.int64]:
+    """The three cells whose diagonal is flipped to mark the centre of an n × n grid.
+
+    With ``c = n // 2`` these are cells (c-1, c-1), (c-1, c) and (c, c): three of the four
+    cells around sample (c, c), all but (c, c-1).  The set is not symmetric under any of the
+    eight symmetries of the square, so a mesh read with its winding reversed (the transposed
+    grid) does not verify.  See :func:`grid_faces`.
+    """
+    c = n // 2
+    return np.array([[c - 1, c - 1], [c - 1, c], [c, c]], dtype=np.int64)
+
+
 def grid_faces(n: int) -> NDArray[np.int64]:
     """The two triangles of every grid cell, counter-clockwise in (u, v), diagonals alternating.
 
     Cell (i, j) has corners ``p00 = i*N + j``, ``p01 = p00 + 1``, ``p10 = p00 + N`` and
     ``p11 = p10 + 1``.  Where i + j is even its diagonal is p00-p11, triangles (p00, p01, p11)
     and (p00, p11, p10); where it is odd the diagonal is p01-p10, triangles (p00, p01, p10)
-    and (p01, p11, p10).
+    and (p01, p11, p10).  The three :func:`fiducial_cells` around the centre sample
+    (N/2, N/2) take the other diagonal.
 
     Notes
     -----
     Alternating diagonals (a "4-8" triangulation) make the grid readable from connectivity
-    alone: samples with i + j even have 8 neighbours, the others 4, and an edge is a diagonal
-    exactly when it joins two even samples.  With every diagonal the same way, the triangles
-    would form the regular triangular lattice, whose six edge directions connectivity cannot
-    tell apart.  Blind extraction (issue #3) relies on this.  (A welded cut seam joins samples of
-    the same parity when its two sides start on perimeter positions of matching parity; the
-    boundary allocation does not enforce that yet: forcing even steps on every chain cost up to
-    a factor 3 in Hausdorff distance on the development meshes, see docs/geometry_image.md.)
+    alone: away from the centre, samples with i + j even have 8 neighbours, the others 4.
+
+    The flipped centre cells are a *fiducial*: the centre sample gets 5 neighbours, which
+    have 5, 5, 6, 6 and 8 neighbours themselves; the one with 8 is sample (N/2 + 1, N/2 - 1).
+    Blind extraction (:mod:`meshwm.grid`) finds this pattern in the received mesh and reads
+    the whole grid from there, one triangle at a time.  Only the
+    triangulation of three cells changes, not a single sample, so the surface moves by no
+    more than the non-planarity of three grid quads.
     """
     i, j = np.meshgrid(np.arange(n - 1), np.arange(n - 1), indexing="ij")
     p00 = (i * n + j).ravel()
     p01, p10, p11 = p00 + 1, p00 + n, p00 + n + 1
-    even = ((i + j) % 2 == 0).ravel()[:, None]
+    even = (i + j) % 2 == 0
+    if n >= 4:
+        fid = fiducial_cells(n)
+        even[fid[:, 0], fid[:, 1]] = ~even[fid[:, 0], fid[:, 1]]
+    even = even.ravel()[:, None]
     t1 = np.where(even, np.stack([p00, p01, p11], axis=1), np.stack([p00, p01, p10], axis=1))
     t2 = np.where(even, np.stack([p00, p11, p10], axis=1), np.stack([p01, p11, p10], axis=1))
     return np.stack([t1, t2], axis=1).reshape(-1, 3).astype(np.int64)
