@@ -13,7 +13,15 @@ import numpy as np
 import pymeshlab
 from numpy.typing import NDArray
 
-__all__ = ["SurfaceDistance", "bounding_box_diagonal", "surface_distance"]
+__all__ = [
+    "SurfaceDistance",
+    "bit_error_rate",
+    "bounding_box_diagonal",
+    "correlation2",
+    "detection_p_value",
+    "psnr",
+    "surface_distance",
+]
 
 
 class SurfaceDistance(NamedTuple):
@@ -90,3 +98,93 @@ def surface_distance(
         rms_ba=float(ba["RMS"]),
         diagonal=bounding_box_diagonal(vertices_a),
     )
+
+
+def psnr(reference: NDArray, marked: NDArray) -> float:
+    """Peak signal-to-noise ratio of a marked geometry image, in dB.
+
+    ``20 log10(d / rms)``, with ``d`` the bounding-box diagonal of ``reference`` and ``rms``
+    the root mean square of the differences over every sample of x1, x2 and x3 (the paper's
+    three N×N matrices).  The paper does not say which peak it uses; the bounding-box diagonal
+    is the usual one for geometry and meshes (it makes the figure independent of scale).
+
+    Parameters
+    ----------
+    reference, marked : (..., 3) float64 ndarray
+        Unmarked and marked geometry images (or vertex arrays of equal shape).
+
+    Returns
+    -------
+    float
+        ``inf`` when the two are identical.
+
+    Examples
+    --------
+    >>> a = np.zeros((4, 4, 3)); a[..., 0] = np.arange(4)[:, None]
+    >>> b = a.copy(); b[0, 0, 0] += 0.03
+    >>> round(psnr(a, b), 2)
+    56.81
+    """
+    a = np.asarray(reference, dtype=np.float64)
+    b = np.asarray(marked, dtype=np.float64)
+    if a.shape != b.shape or a.shape[-1] != 3:
+        raise ValueError(f"need two (..., 3) arrays of one shape, got {a.shape} and {b.shape}")
+    rms = float(np.sqrt(np.mean((a - b) ** 2)))
+    if rms == 0:
+        return float("inf")
+    return float(20 * np.log10(bounding_box_diagonal(a.reshape(-1, 3)) / rms))
+
+
+def bit_error_rate(expected: NDArray, found: NDArray) -> float:
+    """Fraction of positions where two 0/1 arrays of one shape differ.
+
+    Examples
+    --------
+    >>> bit_error_rate(np.array([0, 1, 1, 0]), np.array([0, 1, 0, 0]))
+    0.25
+    """
+    a, b = np.asarray(expected), np.asarray(found)
+    if a.shape != b.shape or a.size == 0:
+        raise ValueError(f"need two non-empty arrays of one shape, got {a.shape} and {b.shape}")
+    return float(np.mean(a != b))
+
+
+def correlation2(a: NDArray, b: NDArray) -> float:
+    """2-D correlation coefficient, MATLAB's ``corr2``.
+
+    ``sum((a - mean a)(b - mean b)) / sqrt(sum((a - mean a)^2) sum((b - mean b)^2))``.  Like
+    MATLAB, a constant image gives NaN (0/0).
+
+    Examples
+    --------
+    >>> round(correlation2(np.eye(3), 1 - np.eye(3)), 6)
+    -1.0
+    """
+    x = np.asarray(a, dtype=np.float64)
+    y = np.asarray(b, dtype=np.float64)
+    if x.shape != y.shape or x.size == 0:
+        raise ValueError(f"need two non-empty arrays of one shape, got {x.shape} and {y.shape}")
+    x = x - x.mean()
+    y = y - y.mean()
+    den = np.sqrt(np.sum(x * x) * np.sum(y * y))
+    if den == 0:
+        return float("nan")
+    return float(np.sum(x * y) / den)
+
+
+def detection_p_value(agreeing: int, total: int) -> float:
+    """P(at least ``agreeing`` of ``total`` fair coin flips come up right): the binomial tail.
+
+    Under the null hypothesis (no mark, or another key) the keyed dither makes every extracted
+    bit a fair coin, so this is the probability of a match at least this good by chance.
+
+    Examples
+    --------
+    >>> detection_p_value(10, 10) == 0.5**10
+    True
+    """
+    from scipy.stats import binom
+
+    if not 0 <= agreeing <= total or total < 1:
+        raise ValueError(f"need 0 <= agreeing <= total and total >= 1, got {agreeing}, {total}")
+    return float(binom.sf(agreeing - 1, total, 0.5))
