@@ -18,13 +18,18 @@ from pathlib import Path
 
 from meshwm import __version__
 from meshwm._validate import DEFAULT_MAX_FACES, check_square_pow2
+from meshwm.embed import embed, extract
 from meshwm.geometry_image import geometry_image_to_mesh, mesh_to_geometry_image
+from meshwm.grid import GridError
 from meshwm.io import READ_SUFFIXES, WRITE_SUFFIXES, check_output, read_mesh, write_mesh
+from meshwm.mark import MARK_SIZE_RANGE, load_mark, save_mark
 from meshwm.metrics import surface_distance
+from meshwm.params import CHANNELS, WatermarkParams
 
 __all__ = ["main"]
 
 EXIT_OK = 0
+EXIT_ABSENT = 1
 EXIT_ERROR = 2
 
 
@@ -54,6 +59,96 @@ def _size(text: str) -> int:
         return check_square_pow2(_positive_int(text), name="--size")
     except (TypeError, ValueError) as exc:
         raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def _mark_size(text: str) -> int:
+    value = _positive_int(text)
+    low, high = MARK_SIZE_RANGE
+    if not low <= value <= high:
+        raise argparse.ArgumentTypeError(f"expected a mark size in {low}..{high}, got {value}")
+    return value
+
+
+def _channels(text: str) -> tuple[str, ...]:
+    names = tuple(t.strip() for t in text.split(",") if t.strip())
+    bad = [n for n in names if n not in CHANNELS]
+    if not names or bad:
+        raise argparse.ArgumentTypeError(
+            f"expected a comma-separated subset of {','.join(CHANNELS)}, got {text!r}"
+        )
+    return names
+
+
+def _probability(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not 0 < value < 1:
+        raise argparse.ArgumentTypeError(f"expected a probability in (0, 1), got {text}")
+    return value
+
+
+def _real(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if value != value or value in (float("inf"), float("-inf")):
+        raise argparse.ArgumentTypeError(f"expected a finite number, got {text}")
+    return value
+
+
+def _key(text: str) -> str:
+    if not text:
+        raise argparse.ArgumentTypeError("the key must not be empty")
+    return text
+
+
+def _add_watermark_options(p: argparse.ArgumentParser, *, size: bool) -> None:
+    """The public parameters; extraction must be given the ones embedding used."""
+    defaults = WatermarkParams()
+    p.add_argument("--key", type=_key, required=True, help="the secret key (any string)")
+    if size:
+        p.add_argument(
+            "--size",
+            type=_size,
+            default=defaults.size,
+            help=f"geometry-image size N, a power of two 64..2048 ({defaults.size})",
+        )
+    p.add_argument(
+        "--channels",
+        type=_channels,
+        default=defaults.channels,
+        help=f"canonical axes that carry the mark ({','.join(defaults.channels)})",
+    )
+    p.add_argument(
+        "--step",
+        type=_real,
+        default=defaults.step,
+        help=f"remainder step relative to the model's RMS radius ({defaults.step})",
+    )
+    p.add_argument(
+        "--arnold-iterations",
+        type=int,
+        default=defaults.arnold_iterations,
+        help=f"Arnold scrambling iterations of the mark ({defaults.arnold_iterations})",
+    )
+    p.add_argument(
+        "--max-faces",
+        type=_positive_int,
+        default=DEFAULT_MAX_FACES,
+        help=f"refuse inputs with more faces ({DEFAULT_MAX_FACES})",
+    )
+
+
+def _params(args: argparse.Namespace, size: int | None = None) -> WatermarkParams:
+    return WatermarkParams(
+        size=size or getattr(args, "size", WatermarkParams().size),
+        channels=args.channels,
+        step=args.step,
+        arnold_iterations=args.arnold_iterations,
+    )
 
 
 def _build_parser() -> argparse.ArgumentParser:
@@ -95,7 +190,220 @@ def _build_parser() -> argparse.ArgumentParser:
         help="skip the Hausdorff/RMS measurement of the remeshing error (faster)",
     )
     remesh.set_defaults(run=_run_remesh)
+
+    emb = sub.add_parser(
+        "embed",
+        help="watermark a mesh with a mark image and a key",
+        description=(
+            "Remesh to a geometry image, embed the mark (default: the bundled 32×32 logo) "
+            "under the key, and write the marked mesh."
+        ),
+    )
+    emb.add_argument("input", type=Path, help="input mesh file")
+    emb.add_argument("-o", "--output", type=Path, required=True, help="output mesh file")
+    emb.add_argument("--mark", type=Path, help="mark image (PNG, BMP, ...), thresholded")
+    emb.add_argument(
+        "--mark-size", type=_mark_size, default=32, help="resample the mark to this side (32)"
+    )
+    _add_watermark_options(emb, size=True)
+    emb.add_argument("--json", action="store_true", help="print the report as JSON")
+    emb.add_argument(
+        "--force", action="store_true", help="allow the output to overwrite the input file"
+    )
+    emb.add_argument(
+        "--no-distance", action="store_true", help="skip the MeshLab distance measurements"
+    )
+    emb.set_defaults(run=_run_embed)
+
+    ext = sub.add_parser(
+        "extract",
+        help="read the mark from a mesh (blind: the mesh and the key only)",
+        description="Find the grid in the mesh, read the mark and write it as a PNG.",
+    )
+    ext.add_argument("input", type=Path, help="received mesh file")
+    ext.add_argument("-o", "--output", type=Path, required=True, help="mark image to write (.png)")
+    ext.add_argument(
+        "--mark-size", type=_mark_size, default=32, help="side of the square mark (32)"
+    )
+    ext.add_argument("--mark", type=Path, help="the original mark, to report BER and corr2")
+    _add_watermark_options(ext, size=False)
+    ext.add_argument("--json", action="store_true", help="print the report as JSON")
+    ext.set_defaults(run=_run_extract)
+
+    ver = sub.add_parser(
+        "verify",
+        help="decide whether a mesh carries a mark (exit 0 present, 1 absent, 2 error)",
+        description=(
+            "Extract and compare with the expected mark: present when the bit agreement is "
+            "significant, p-value below --fpr (binomial test, fair-coin null)."
+        ),
+    )
+    ver.add_argument("input", type=Path, help="mesh file to check")
+    ver.add_argument("--mark", type=Path, required=True, help="the expected mark image")
+    ver.add_argument(
+        "--mark-size", type=_mark_size, default=32, help="side of the square mark (32)"
+    )
+    ver.add_argument(
+        "--fpr",
+        type=_probability,
+        default=1e-6,
+        help="false-positive probability allowed (1e-6)",
+    )
+    _add_watermark_options(ver, size=False)
+    ver.add_argument("--json", action="store_true", help="print the result as JSON")
+    ver.set_defaults(run=_run_verify)
+
+    demo = sub.add_parser(
+        "demo",
+        help="embed the logo into a bundled mesh, attack it, extract, and show the marks",
+        description=(
+            "Embeds the default logo into the bundled spot mesh (N=256), runs a few attacks, "
+            "extracts, prints a table and writes the meshes and a PNG of the marks."
+        ),
+    )
+    demo.add_argument(
+        "--out", type=Path, default=Path("meshwm-demo"), help="output folder (meshwm-demo)"
+    )
+    demo.set_defaults(run=_run_demo)
     return parser
+
+
+def _round(report: dict) -> dict:
+    return {k: round(v, 6) if isinstance(v, float) else v for k, v in report.items()}
+
+
+def _run_embed(args: argparse.Namespace) -> int:
+    check_output(args.output, overwrite_input=args.input, force=args.force)
+    params = _params(args)
+    mark = load_mark(args.mark, size=args.mark_size) if args.mark else None
+    if mark is None and args.mark_size != 32:
+        from meshwm.mark import default_mark
+
+        mark = default_mark(args.mark_size)
+    vertices, faces = read_mesh(args.input, max_faces=args.max_faces)
+    result = embed(
+        vertices,
+        faces,
+        mark,
+        key=args.key,
+        params=params,
+        max_faces=args.max_faces,
+        distances=not args.no_distance,
+    )
+    write_mesh(
+        args.output, result.vertices, result.faces, overwrite_input=args.input, force=args.force
+    )
+    report = {"input": str(args.input), "output": str(args.output), **result.report}
+    report["seconds"] = round(report["seconds"], 3)
+    if args.json:
+        print(json.dumps(_round(report), indent=2, sort_keys=True))
+    else:
+        lines = [
+            f"{report['input']} -> {report['output']}",
+            f"  mark : {report['mark_size']}×{report['mark_size']} = {report['used_bits']} bits "
+            f"on {report['carriers']} coefficients (capacity {report['capacity_bits']}), "
+            f"N={report['n']}",
+            f"  PSNR : {report['psnr']:.2f} dB",
+        ]
+        if "mrms_rel" in report:
+            lines.append(
+                f"  mark distortion: MRMS {100 * report['mrms_rel']:.4f}% of the bbox diagonal"
+            )
+            lines.append(
+                f"  output vs input: Hausdorff {100 * report['hausdorff_rel']:.3f}%, "
+                f"RMS {100 * report['rms_rel']:.4f}%"
+            )
+        lines.append(f"  time : {report['seconds']:.2f} s")
+        print("\n".join(lines))
+    return EXIT_OK
+
+
+def _check_png(path: Path, input_path: Path) -> None:
+    if path.suffix.lower() != ".png":
+        raise ValueError(f"{path}: the mark is written as PNG; give the file a .png suffix")
+    if path.exists() and input_path.exists() and path.samefile(input_path):
+        raise ValueError(f"{path}: would overwrite the input")
+    if not path.resolve().parent.is_dir():
+        raise ValueError(f"{path}: folder {path.parent} does not exist")
+
+
+def _run_extract(args: argparse.Namespace) -> int:
+    _check_png(args.output, args.input)
+    expected = load_mark(args.mark, size=args.mark_size) if args.mark else None
+    vertices, faces = read_mesh(args.input, max_faces=args.max_faces)
+    result = extract(
+        vertices,
+        faces,
+        key=args.key,
+        mark_size=args.mark_size,
+        expected=expected,
+        params=_params(args),
+        max_faces=args.max_faces,
+    )
+    save_mark(args.output, result.mark)
+    report = {"input": str(args.input), "output": str(args.output), **result.report}
+    if args.json:
+        print(json.dumps(_round(report), indent=2, sort_keys=True))
+    else:
+        line = f"{args.input}: {args.mark_size}×{args.mark_size} mark -> {args.output}"
+        if expected is not None:
+            line += f" (BER {report['ber']:.4f}, corr2 {report['correlation']:.4f})"
+        print(line)
+    return EXIT_OK
+
+
+def _run_verify(args: argparse.Namespace) -> int:
+    expected = load_mark(args.mark, size=args.mark_size)
+    vertices, faces = read_mesh(args.input, max_faces=args.max_faces)
+    report: dict = {"input": str(args.input), "threshold": args.fpr}
+    try:
+        result = extract(
+            vertices,
+            faces,
+            key=args.key,
+            mark_size=args.mark_size,
+            expected=expected,
+            params=_params(args),
+            max_faces=args.max_faces,
+        )
+    except GridError as exc:
+        # A mesh we can read but that holds no meshwm grid carries no mark: absent, not error.
+        report.update(
+            detected=False,
+            ber=None,
+            correlation=None,
+            bits=args.mark_size**2,
+            p_value=1.0,
+            reason=str(exc),
+        )
+    else:
+        r = result.report
+        report.update(
+            detected=bool(r["p_value"] < args.fpr),
+            ber=r["ber"],
+            correlation=r["correlation"],
+            bits=r["bits"],
+            p_value=r["p_value"],
+            seconds=round(r["seconds"], 3),
+        )
+    if args.json:
+        print(json.dumps(_round(report), indent=2, sort_keys=True))
+    else:
+        verdict = "present" if report["detected"] else "absent"
+        detail = (
+            f"BER {report['ber']:.4f}, p-value {report['p_value']:.3g}"
+            if report["ber"] is not None
+            else report["reason"]
+        )
+        print(f"{args.input}: mark {verdict} ({detail})")
+    return EXIT_OK if report["detected"] else EXIT_ABSENT
+
+
+def _run_demo(args: argparse.Namespace) -> int:
+    from meshwm.demo import run_demo
+
+    run_demo(args.out)
+    return EXIT_OK
 
 
 def _run_remesh(args: argparse.Namespace) -> int:
