@@ -11,8 +11,8 @@ from scipy.spatial.transform import Rotation
 from meshwm._validate import MeshError
 from meshwm.clean import edge_topology_counts
 from meshwm.geometry_image import (
-    geometry_image_to_mesh,
     fiducial_cells,
+    geometry_image_to_mesh,
     grid_faces,
     mesh_to_geometry_image,
 )
