@@ -98,11 +98,12 @@ def run_demo(out: str | os.PathLike, *, echo=print) -> list[dict]:
     cases = [*DEMO_ATTACKS, ("wrong key", None, {})]
     for k, (label, name, options) in enumerate(cases):
         v, f = (v0, f0) if name is None else apply_attack(name, v0, f0, **options)
+        slug = "".join(ch if ch.isalnum() else "_" for ch in label.lower()).strip("_")
         if name is not None:
-            write_mesh(out / f"attacked_{k}_{name}.ply", v, f)
+            write_mesh(out / f"attacked_{k}_{slug}.ply", v, f)
         key = "not-the-key" if label == "wrong key" else _KEY
         found = extract(v, f, key=key, expected=mark)
-        save_mark(out / f"extracted_{k}.png", found.mark)
+        save_mark(out / f"extracted_{k}_{slug}.png", found.mark)
         fr = found.report
         rows.append(
             {
