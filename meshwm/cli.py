@@ -269,7 +269,8 @@ def _build_parser() -> argparse.ArgumentParser:
 
 
 def _round(report: dict) -> dict:
-    return {k: round(v, 6) if isinstance(v, float) else v for k, v in report.items()}
+    """Floats to 6 significant digits (not decimals: p-values and thresholds are tiny)."""
+    return {k: float(f"{v:.6g}") if isinstance(v, float) else v for k, v in report.items()}
 
 
 def _run_embed(args: argparse.Namespace) -> int:
@@ -305,6 +306,12 @@ def _run_embed(args: argparse.Namespace) -> int:
             f"N={report['n']}",
             f"  PSNR : {report['psnr']:.2f} dB",
         ]
+        if report["used_bits"] > report["capacity_bits"]:
+            lines.append(
+                f"  note : the mark exceeds the capacity at N={report['n']} "
+                f"({report['carriers_per_bit_min']} carriers for some bits); a larger --size "
+                "or a smaller --mark-size makes it more robust"
+            )
         if "mrms_rel" in report:
             lines.append(
                 f"  mark distortion: MRMS {100 * report['mrms_rel']:.4f}% of the bbox diagonal"

@@ -311,8 +311,11 @@ def embed_gim(
     Returns
     -------
     Embedded
-        ``vertices`` holds the marked geometry image; the report has ``carriers``,
-        ``carriers_per_bit_min``, ``capacity_bits``, ``used_bits``, ``psnr`` and ``frame``.
+        ``vertices`` holds the marked geometry image; the report has ``carriers`` (slots that
+        carry a bit), ``carriers_per_bit_min``, ``capacity_bits`` (the payload at which an
+        average bit still has ``min_carriers`` HIGH/HIGHER carriers; a longer payload is
+        embedded, on fewer carriers per bit, so less robustly), ``used_bits``, ``psnr`` and
+        ``frame_conditioning``.
 
     Examples
     --------
@@ -355,9 +358,13 @@ def embed_gim(
     report = {
         "carriers": int(use.sum()),
         "carriers_per_bit_min": int(count.min()),
-        "capacity_bits": int(np.isin(strength_class(weight[1:-1, 1:-1]), EMBEDDING_CLASSES).sum())
-        * len(params.bands)
-        * len(params.channels),
+        # The payload at which an average bit still has min_carriers HIGH/HIGHER carriers.
+        "capacity_bits": int(
+            np.isin(strength_class(weight[1:-1, 1:-1]), EMBEDDING_CLASSES).sum()
+            * len(params.bands)
+            * len(params.channels)
+            // params.min_carriers
+        ),
         "used_bits": len(bits),
         "psnr": psnr(gim, marked),
         "frame_conditioning": frame.conditioning,

@@ -729,6 +729,9 @@ def check_output(
         Unsupported suffix, or the output would overwrite the input.
     """
     check_output_suffix(path)
+    parent = Path(path).resolve().parent
+    if not parent.is_dir():
+        raise _error(path, f"folder {parent} does not exist")
     if (
         overwrite_input is not None
         and not force
