@@ -23,9 +23,9 @@ This is the one module that composes the stages.  On the geometry image (:func:`
    of the slots, derived from the key, deals them out to the bits in turn, so every bit owns
    the same number of slots, spread over the whole model.  A slot carries its bit only where
    the mask says HIGH or HIGHER; a bit with fewer than ``min_carriers`` such slots also uses
-   its best-weighted others.  The assignment depends on positions, not on the set the mask
-   selects, so a mask that differs by one coefficient at extraction (rounding at a class
-   boundary) costs one vote of one bit, not a shifted stream.
+   its others of the best fuzzy class, in the keyed order.  The assignment depends on
+   positions, not on the set the mask selects, so a mask that differs by one coefficient at
+   extraction (rounding at a class boundary) costs one vote of one bit, not a shifted stream.
 5. **Remainder rule** (step 8): with step ``Δ = step × scale`` and a keyed dither ``u`` per
    slot, the coefficient ``c`` becomes the nearest value whose remainder ``(c/Δ - u) mod 1``
    equals ``remainder_one`` (bit 1) or ``remainder_zero`` (bit 0): the paper's "remainder
@@ -181,18 +181,19 @@ def canonical_frame(ca: NDArray) -> Frame:
     ramp = np.arange(m, dtype=np.float64) - (m - 1) / 2
     u = np.einsum("i,ijk->k", ramp, centred)
     v = np.einsum("j,ijk->k", ramp, centred)
-    e1 = u / np.linalg.norm(u)
-    w = v - (v @ e1) * e1
-    e2 = w / np.linalg.norm(w)
-    e3 = np.cross(e1, e2)
-    conditioning = float(
-        min(np.linalg.norm(u) / (m * m * scale), np.linalg.norm(w) / np.linalg.norm(v))
-    )
+    nu, nv = float(np.linalg.norm(u)), float(np.linalg.norm(v))
+    conditioning = 0.0
+    if nu > 0 and nv > 0:
+        e1 = u / nu
+        w = v - (v @ e1) * e1
+        conditioning = min(nu / (m * m * scale), float(np.linalg.norm(w)) / nv)
     if not np.isfinite(conditioning) or conditioning < 1e-6:
         raise MeshError(
             "the geometry image has no stable orientation (its grid moments vanish); "
             "it cannot be marked pose-independently"
         )
+    e2 = w / np.linalg.norm(w)
+    e3 = np.cross(e1, e2)
     return Frame(origin, np.stack([e1, e2, e3], axis=1), scale, conditioning)
 
 
@@ -204,6 +205,7 @@ class _Layout(NamedTuple):
     row: NDArray[np.int64]
     col: NDArray[np.int64]
     bit: NDArray[np.int64]  # -1: the slot carries nothing
+    rank: NDArray[np.int64]  # position of the slot in the keyed dealing order
     dither: NDArray[np.float64]
 
 
@@ -225,22 +227,29 @@ def _layout(params: WatermarkParams, key: str | bytes, n_bits: int) -> _Layout:
     bit = np.full(total, -1, dtype=np.int64)
     dealt = order[: per_bit * n_bits]
     bit[dealt] = np.arange(len(dealt)) % n_bits
+    rank = np.empty(total, dtype=np.int64)
+    rank[order] = np.arange(total)
     dither = keyed_uniform(key, tag + "/dither", total)
-    return _Layout(c, b, r, q, bit, dither)
+    return _Layout(c, b, r, q, bit, rank, dither)
 
 
 def _carriers(
     layout: _Layout, weight: NDArray[np.float64], n_bits: int, min_carriers: int
 ) -> NDArray[np.bool_]:
-    """Which slots carry their bit: HIGH/HIGHER, topped up to ``min_carriers`` per bit."""
-    w = weight[layout.row, layout.col]
-    use = np.isin(strength_class(w), EMBEDDING_CLASSES) & (layout.bit >= 0)
+    """Which slots carry their bit: HIGH/HIGHER, topped up to ``min_carriers`` per bit.
+
+    Top-up slots are taken by fuzzy *class* (higher first), then in the keyed dealing order.
+    Not by the weight itself: weights that tie in exact arithmetic (a plane) differ in their
+    last bits, and the rounding changes that embedding makes to CA would reorder them.
+    """
+    cls = strength_class(weight[layout.row, layout.col])
+    use = np.isin(cls, EMBEDDING_CLASSES) & (layout.bit >= 0)
     count = np.bincount(layout.bit[use], minlength=n_bits)
     short = np.flatnonzero(count < min_carriers)
     if len(short):
         slot = np.flatnonzero(np.isin(layout.bit, short) & ~use)
-        # Best weight first; ties by slot index (np.lexsort is stable).
-        slot = slot[np.lexsort((slot, -w[slot], layout.bit[slot]))]
+        # Per bit: best class first, then the dealing order (np.lexsort: last key first).
+        slot = slot[np.lexsort((layout.rank[slot], -cls[slot], layout.bit[slot]))]
         bit = layout.bit[slot]
         rank = np.arange(len(slot)) - np.searchsorted(bit, bit)
         need = (min_carriers - count)[bit]

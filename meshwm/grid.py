@@ -293,7 +293,8 @@ def recover_grid(vertices: NDArray, faces: NDArray) -> RecoveredGrid:
     ------
     GridError
         No grid verifies: the mesh was not written by meshwm, or its connectivity was changed
-        (remeshed, simplified, cut).
+        (remeshed, simplified, cut).  A few missing faces are tolerated as long as the walk
+        still reaches every sample (and the fiducial is intact).
 
     Examples
     --------

@@ -164,11 +164,11 @@ def correlation2(a: NDArray, b: NDArray) -> float:
     y = np.asarray(b, dtype=np.float64)
     if x.shape != y.shape or x.size == 0:
         raise ValueError(f"need two non-empty arrays of one shape, got {x.shape} and {y.shape}")
+    if np.ptp(x) == 0 or np.ptp(y) == 0:
+        return float("nan")  # a constant image (tested exactly: its mean may not be)
     x = x - x.mean()
     y = y - y.mean()
     den = np.sqrt(np.sum(x * x) * np.sum(y * y))
-    if den == 0:
-        return float("nan")
     return float(np.sum(x * y) / den)
 
 

@@ -44,8 +44,8 @@ class WatermarkParams:
         ``remainder_zero``.  Defaults 0.75 and 0.25, half a step apart, the largest margin.
     min_carriers : int
         Each bit is carried by at least this many coefficients; where the fuzzy mask's HIGH and
-        HIGHER coefficients are fewer, the bit's next-best coefficients (by fuzzy weight) are
-        added.  Default 3.
+        HIGHER coefficients are fewer, others are added (best fuzzy class first, then in
+        the keyed order).  Default 3.
 
     Examples
     --------

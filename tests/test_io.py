@@ -379,7 +379,7 @@ def test_write_failure_message(
 
 def test_write_into_missing_directory(tmp_path: Path, spot: tuple[np.ndarray, np.ndarray]) -> None:
     path = tmp_path / "missing" / "out.ply"
-    with pytest.raises(MeshError, match="folder .* does not exist") as error:
+    with pytest.raises(MeshError, match=r"folder .* does not exist") as error:
         write_mesh(path, *spot)
     assert_one_line_error(error, path)
 
