@@ -22,7 +22,7 @@ from meshwm.embed import embed, extract
 from meshwm.geometry_image import geometry_image_to_mesh, mesh_to_geometry_image
 from meshwm.grid import GridError
 from meshwm.io import READ_SUFFIXES, WRITE_SUFFIXES, check_output, read_mesh, write_mesh
-from meshwm.mark import MARK_SIZE_RANGE, load_mark, save_mark
+from meshwm.mark import MARK_SIZE_RANGE, default_mark, load_mark, save_mark
 from meshwm.metrics import surface_distance
 from meshwm.params import CHANNELS, WatermarkParams
 
@@ -142,9 +142,9 @@ def _add_watermark_options(p: argparse.ArgumentParser, *, size: bool) -> None:
     )
 
 
-def _params(args: argparse.Namespace, size: int | None = None) -> WatermarkParams:
+def _params(args: argparse.Namespace) -> WatermarkParams:
     return WatermarkParams(
-        size=size or getattr(args, "size", WatermarkParams().size),
+        size=getattr(args, "size", WatermarkParams().size),
         channels=args.channels,
         step=args.step,
         arnold_iterations=args.arnold_iterations,
@@ -276,11 +276,7 @@ def _round(report: dict) -> dict:
 def _run_embed(args: argparse.Namespace) -> int:
     check_output(args.output, overwrite_input=args.input, force=args.force)
     params = _params(args)
-    mark = load_mark(args.mark, size=args.mark_size) if args.mark else None
-    if mark is None and args.mark_size != 32:
-        from meshwm.mark import default_mark
-
-        mark = default_mark(args.mark_size)
+    mark = load_mark(args.mark, size=args.mark_size) if args.mark else default_mark(args.mark_size)
     vertices, faces = read_mesh(args.input, max_faces=args.max_faces)
     result = embed(
         vertices,

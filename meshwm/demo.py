@@ -8,6 +8,7 @@ extracted mark) into the output folder.
 
 from __future__ import annotations
 
+import io
 import os
 from importlib import resources
 from pathlib import Path
@@ -56,8 +57,6 @@ def _marks_figure(panels: list[tuple[str, NDArray[np.uint8]]], path: Path) -> No
         image.paste(tile.resize((side, side), Image.NEAREST), (x, pad))
         for line, text in enumerate(_wrap(label, side)):
             draw.text((x, pad + side + 4 + 11 * line), text, fill=0)
-    import io
-
     buffer = io.BytesIO()
     image.save(buffer, format="PNG")
     write_atomic(path, buffer.getvalue())

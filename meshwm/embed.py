@@ -493,7 +493,12 @@ def embed(
     params = params or WatermarkParams()
     mark = _check_mark(mark)
     g = mesh_to_geometry_image(vertices, faces, size=params.size, max_faces=max_faces)
-    grid_v, grid_f = geometry_image_to_mesh(g.gim, g.weld)
+    out_v, out_f = geometry_image_to_mesh(
+        g.gim, g.weld, other_vertices=g.other_vertices, other_faces=g.other_faces
+    )
+    # The grid comes first in the output, the other components (unchanged) after it.
+    n_grid_v = len(out_v) - len(g.other_vertices)
+    grid_v, grid_f = out_v[:n_grid_v], out_f[: len(out_f) - len(g.other_faces)]
     # Read the cover back exactly as extraction will (fold tips of cut ends included).
     try:
         cover = recover_grid(grid_v, grid_f)
@@ -504,31 +509,25 @@ def embed(
         marked = embed_gim(cover.gim, bits, key=key, params=params)
     except ValueError as exc:
         raise MeshError(str(exc)) from exc
-    out_v = np.empty_like(grid_v)
+    unmarked_v = grid_v.copy()
     out_v[cover.index.ravel()] = marked.vertices.reshape(-1, 3)
     report: dict[str, Any] = {"n": params.size, **marked.report}
     # STL stores float32 and re-welds by position: distinct vertices must stay distinct.
-    as32 = out_v.astype(np.float32)
-    report["float32_distinct"] = bool(len(np.unique(as32, axis=0)) == len(out_v))
+    as32 = out_v[:n_grid_v].astype(np.float32)
+    report["float32_distinct"] = bool(len(np.unique(as32, axis=0)) == n_grid_v)
     if distances:
-        diag = bounding_box_diagonal(grid_v)
-        d_mark = surface_distance(grid_v, grid_f, out_v, grid_f)
+        diag = bounding_box_diagonal(unmarked_v)
+        d_mark = surface_distance(unmarked_v, grid_f, out_v[:n_grid_v], grid_f)
         report["mrms_rel"] = d_mark.rms / diag
         report["mark_hausdorff_rel"] = d_mark.hausdorff / diag
-        v_in = np.asarray(vertices, dtype=np.float64)
-        f_in = np.asarray(faces, dtype=np.int64)
-        d_all = surface_distance(v_in, f_in, out_v, grid_f)
+        d_all = surface_distance(vertices, faces, out_v, out_f)
         report["hausdorff_rel"] = d_all.hausdorff / d_all.diagonal
         report["rms_rel"] = d_all.rms / d_all.diagonal
-    faces_out = grid_f
-    if len(g.other_faces):
-        faces_out = np.vstack([grid_f, np.asarray(g.other_faces, np.int64) + len(out_v)])
-        out_v = np.vstack([out_v, np.asarray(g.other_vertices, np.float64)])
     report["vertices"] = len(out_v)
-    report["faces"] = len(faces_out)
+    report["faces"] = len(out_f)
     report["mark_size"] = int(mark.shape[0])
     report["seconds"] = time.perf_counter() - t0
-    return Embedded(out_v, faces_out, report)
+    return Embedded(out_v, out_f, report)
 
 
 def extract(
