@@ -42,6 +42,7 @@ __all__ = [
     "clean_mesh",
     "edge_topology_counts",
     "euler_characteristic",
+    "largest_component",
     "unique_edges",
 ]
 
@@ -359,6 +360,28 @@ def _face_components(n_vertices: int, faces: NDArray[np.int64]) -> NDArray[np.in
     adjacency = sp.bmat([[None, graph], [graph.T, None]]).tocsr()
     _, labels = connected_components(adjacency, directed=False)
     return labels[:m]
+
+
+def largest_component(vertices: NDArray, faces: NDArray) -> tuple[NDArray, NDArray]:
+    """The connected component with the most faces, as it is: nothing merged, moved or dropped.
+
+    Unlike :func:`clean_mesh`, coincident vertices stay distinct.  Blind extraction reads the
+    grid from connectivity first this way, because an attack such as coordinate quantisation
+    can make distinct vertices coincide without changing the file's connectivity.
+
+    Examples
+    --------
+    >>> v = np.eye(4)
+    >>> f = np.array([[0, 1, 2], [0, 2, 1], [3, 3, 3]])
+    >>> largest_component(v, f)[1].tolist()
+    [[0, 1, 2], [0, 2, 1]]
+    """
+    v, f = check_mesh(vertices, faces)
+    labels = _face_components(len(v), f)
+    counts = np.bincount(labels)
+    main = f[labels == int(np.argmax(counts))]
+    mv, mf, _ = _drop_unreferenced(v, main)
+    return mv, mf
 
 
 def clean_mesh(

@@ -63,8 +63,8 @@ from typing import Any, NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from ._validate import MeshError
-from .clean import clean_mesh
+from ._validate import MeshError, check_mesh
+from .clean import clean_mesh, largest_component
 from .fuzzy import EMBEDDING_CLASSES, strength_class
 from .geometry_image import geometry_image_to_mesh, mesh_to_geometry_image
 from .grid import GridError, recover_grid
@@ -530,6 +530,21 @@ def embed(
     return Embedded(out_v, out_f, report)
 
 
+def _read_grid(vertices: NDArray, faces: NDArray, max_faces: int):
+    """The grid of a received mesh: from its connectivity as given, else after cleaning.
+
+    As given first: quantised coordinates can make distinct vertices coincide, and merging
+    them would change the connectivity.  Cleaned second: an STL file has no indices, and only
+    merging coincident vertices rebuilds the connectivity.
+    """
+    v, f = check_mesh(vertices, faces, max_faces=max_faces)
+    try:
+        return recover_grid(*largest_component(v, f))
+    except GridError:
+        clean = clean_mesh(v, f, max_faces=max_faces)
+        return recover_grid(clean.vertices, clean.faces)
+
+
 def extract(
     vertices: NDArray,
     faces: NDArray,
@@ -575,8 +590,7 @@ def extract(
     """
     t0 = time.perf_counter()
     params = params or WatermarkParams()
-    clean = clean_mesh(vertices, faces, max_faces=max_faces)
-    grid = recover_grid(clean.vertices, clean.faces)
+    grid = _read_grid(vertices, faces, max_faces)
     if grid.n != params.size:
         params = dataclasses.replace(params, size=grid.n)
     n_bits = int(mark_size) ** 2

@@ -338,6 +338,18 @@ def test_mesh_mark_survives_lossless_attacks(marked_spot, attack, options):
     assert_array_equal(found.mark, MARK)
 
 
+def test_mesh_mark_survives_quantisation_that_merges_vertices(marked_spot):
+    """9 bits per bounding-box axis make distinct vertices coincide; the file's connectivity is
+    intact, so extraction must read it as given rather than merge the coincident vertices."""
+    v = marked_spot.vertices
+    lo, hi = v.min(axis=0), v.max(axis=0)
+    levels = 2**9 - 1
+    q = lo + np.round((v - lo) / (hi - lo) * levels) / levels * (hi - lo)
+    assert len(np.unique(q, axis=0)) < len(q)  # some vertices now coincide
+    found = extract(q, marked_spot.faces, key=KEY, expected=MARK)
+    assert found.report["ber"] == 0.0
+
+
 def test_mesh_ber_grows_with_noise(marked_spot):
     ber = [
         extract(
