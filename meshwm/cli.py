@@ -18,6 +18,7 @@ from pathlib import Path
 
 from meshwm import __version__
 from meshwm._validate import DEFAULT_MAX_FACES, check_square_pow2
+from meshwm.attacks import ATTACK_PARAMS, ATTACKS, apply_attack
 from meshwm.embed import embed, extract
 from meshwm.geometry_image import geometry_image_to_mesh, mesh_to_geometry_image
 from meshwm.grid import GridError
@@ -253,6 +254,8 @@ def _build_parser() -> argparse.ArgumentParser:
     ver.add_argument("--json", action="store_true", help="print the result as JSON")
     ver.set_defaults(run=_run_verify)
 
+    _add_attack_parser(sub)
+
     demo = sub.add_parser(
         "demo",
         help="embed the logo into a bundled mesh, attack it, extract, and show the marks",
@@ -400,6 +403,122 @@ def _run_verify(args: argparse.Namespace) -> int:
         )
         print(f"{args.input}: mark {verdict} ({detail})")
     return EXIT_OK if report["detected"] else EXIT_ABSENT
+
+
+def _seed(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"expected a number >= 0, got {value}")
+    return value
+
+
+def _attack_param_kinds() -> dict[str, list[str]]:
+    """Every attack parameter name -> the attacks that take it."""
+    kinds: dict[str, list[str]] = {}
+    for kind, params in ATTACK_PARAMS.items():
+        for p in params:
+            kinds.setdefault(p.name, []).append(kind)
+    return kinds
+
+
+def _add_attack_parser(sub: argparse._SubParsersAction) -> None:
+    """``meshwm attack``: every attack parameter of the registry is an option ``--NAME V``.
+
+    The options are the union over all attacks (so they can come in any order and ``--help``
+    lists them); :func:`_run_attack` refuses those that the chosen ``--kind`` does not take.
+    """
+    lines = ["parameters per kind (default; allowed):"]
+    for kind in sorted(ATTACKS):
+        params = ATTACK_PARAMS[kind]
+        text = "; ".join(
+            f"--{p.name} {'random' if p.default is None else p.default} ({p.allowed})"
+            for p in params
+        )
+        lines.append(f"  {kind}: {text or 'none'}")
+    lines.append("docs/attacks.md defines every attack and its units.")
+    att = sub.add_parser(
+        "attack",
+        help="apply one attack (smoothing, noise, cropping, simplification, ...) to a mesh",
+        description=(
+            "Apply one seeded, deterministic attack from the registry (meshwm.attacks.ATTACKS) "
+            "and write the result. gim_* attacks are the paper's, on the geometry image, and "
+            "need a mesh written by meshwm."
+        ),
+        epilog="\n".join(lines),
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    att.add_argument("input", type=Path, help="input mesh file")
+    att.add_argument("-o", "--output", type=Path, required=True, help="output mesh file")
+    att.add_argument(
+        "--kind",
+        required=True,
+        choices=sorted(ATTACKS),
+        metavar="KIND",
+        help=f"the attack: {', '.join(sorted(ATTACKS))}",
+    )
+    att.add_argument("--seed", type=_seed, default=0, help="random seed, a number >= 0 (0)")
+    for name, kinds in sorted(_attack_param_kinds().items()):
+        flags = [f"--{name}"]
+        if "_" in name:
+            flags.append(f"--{name.replace('_', '-')}")
+        att.add_argument(
+            *flags,
+            dest=f"attack_{name}",
+            metavar="V",
+            help=f"parameter of {', '.join(kinds)}",
+        )
+    att.add_argument("--json", action="store_true", help="print the report as JSON")
+    att.add_argument(
+        "--force", action="store_true", help="allow the output to overwrite the input file"
+    )
+    att.set_defaults(run=_run_attack)
+
+
+def _run_attack(args: argparse.Namespace) -> int:
+    started = time.perf_counter()
+    spec = {p.name: p for p in ATTACK_PARAMS[args.kind]}
+    given = {
+        name: getattr(args, f"attack_{name}")
+        for name in _attack_param_kinds()
+        if getattr(args, f"attack_{name}") is not None
+    }
+    wrong = [name for name in given if name not in spec]
+    if wrong:
+        valid = ", ".join(f"--{name}" for name in spec) or "none"
+        raise ValueError(
+            f"--kind {args.kind} takes no {', '.join(f'--{name}' for name in wrong)}; "
+            f"its parameters: {valid}"
+        )
+    options = {name: spec[name].parse(text, args.kind) for name, text in given.items()}
+    check_output(args.output, overwrite_input=args.input, force=args.force)
+    vertices, faces = read_mesh(args.input)
+    out_v, out_f = apply_attack(args.kind, vertices, faces, seed=args.seed, **options)
+    write_mesh(args.output, out_v, out_f, overwrite_input=args.input, force=args.force)
+    report = {
+        "input": str(args.input),
+        "output": str(args.output),
+        "kind": args.kind,
+        "params": {name: options.get(name, p.default) for name, p in spec.items()},
+        "seed": args.seed,
+        "vertices_in": len(vertices),
+        "faces_in": len(faces),
+        "vertices_out": len(out_v),
+        "faces_out": len(out_f),
+        "seconds": round(time.perf_counter() - started, 3),
+    }
+    if args.json:
+        print(json.dumps(report, indent=2, sort_keys=True))
+    else:
+        params = ", ".join(f"{k}={v}" for k, v in report["params"].items())
+        print(
+            f"{report['input']} -> {report['output']}: {args.kind}({params}), seed {args.seed}: "
+            f"{report['vertices_in']} vertices, {report['faces_in']} faces -> "
+            f"{report['vertices_out']} vertices, {report['faces_out']} faces"
+        )
+    return EXIT_OK
 
 
 def _run_demo(args: argparse.Namespace) -> int:
