@@ -540,8 +540,12 @@ def _read_grid(vertices: NDArray, faces: NDArray, max_faces: int):
     v, f = check_mesh(vertices, faces, max_faces=max_faces)
     try:
         return recover_grid(*largest_component(v, f))
-    except GridError:
-        clean = clean_mesh(v, f, max_faces=max_faces)
+    except GridError as as_given:
+        try:
+            clean = clean_mesh(v, f, max_faces=max_faces)
+        except MeshError:
+            # Not even a clean manifold: certainly no grid of ours (absent, not an error).
+            raise as_given from None
         return recover_grid(clean.vertices, clean.faces)
 
 

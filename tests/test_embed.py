@@ -18,6 +18,7 @@ from meshwm._validate import MeshError
 from meshwm.attacks import apply_attack
 from meshwm.clean import edge_topology_counts, euler_characteristic
 from meshwm.embed import canonical_frame, embed, embed_gim, extract, extract_gim
+from meshwm.grid import GridError
 from meshwm.mark import default_mark
 from meshwm.metrics import detection_p_value
 from meshwm.params import WatermarkParams
@@ -348,6 +349,15 @@ def test_mesh_mark_survives_quantisation_that_merges_vertices(marked_spot):
     assert len(np.unique(q, axis=0)) < len(q)  # some vertices now coincide
     found = extract(q, marked_spot.faces, key=KEY, expected=MARK)
     assert found.report["ber"] == 0.0
+
+
+def test_non_manifold_mesh_without_grid_is_no_grid_not_a_mesh_error():
+    """A mesh clean_mesh refuses (an edge of three faces) holds no grid: GridError, so that
+    verify answers "absent" rather than failing."""
+    v = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1]], dtype=float)
+    f = np.array([[0, 1, 2], [1, 0, 3], [0, 1, 4]])
+    with pytest.raises(GridError):
+        extract(v, f, key=KEY)
 
 
 def test_mesh_ber_grows_with_noise(marked_spot):
