@@ -938,8 +938,13 @@ def geometry_image_to_mesh(
         # A welded cut end leaves a pair of opposite triangles on the same three vertices (a
         # fin): drop both.
         key = np.sort(faces, axis=1)
-        _, inv, cnt = np.unique(key, axis=0, return_inverse=True, return_counts=True)
-        faces = faces[cnt[inv.ravel()] == 1]
+        order = np.lexsort(key.T[::-1])
+        ks = key[order]
+        same = np.all(ks[1:] == ks[:-1], axis=1)
+        twin = np.zeros(len(faces), dtype=bool)
+        twin[order[1:][same]] = True
+        twin[order[:-1][same]] = True
+        faces = faces[~twin]
     used = np.zeros(n * n, dtype=bool)
     used[faces.ravel()] = True
     remap = np.cumsum(used) - 1
