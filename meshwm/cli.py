@@ -259,6 +259,7 @@ def _build_parser() -> argparse.ArgumentParser:
     ver.set_defaults(run=_run_verify)
 
     _add_attack_parser(sub)
+    _add_render_parser(sub)
 
     demo = sub.add_parser(
         "demo",
@@ -516,6 +517,119 @@ def _run_attack(args: argparse.Namespace) -> int:
             f"{report['vertices_in']} vertices, {report['faces_in']} faces -> "
             f"{report['vertices_out']} vertices, {report['faces_out']} faces"
         )
+    return EXIT_OK
+
+
+def _add_render_parser(sub: argparse._SubParsersAction) -> None:
+    """``meshwm render``: shaded views of a mesh, or a heat map of its distance to another."""
+    # meshwm.render's VIEWS_RANGE and SIZE_RANGE, not imported: matplotlib would then load on
+    # every command (tests/test_render.py checks that they agree).
+    views_range, size_range = (1, 12), (100, 4000)
+
+    def bounded(name: str, low: int, high: int):  # an argparse type: text -> int
+        def parse(text: str) -> int:
+            value = _whole_number(text, low)
+            if value > high:
+                raise argparse.ArgumentTypeError(f"expected {name} in {low}..{high}, got {value}")
+            return value
+
+        return parse
+
+    ren = sub.add_parser(
+        "render",
+        help="draw shaded views of a mesh as a PNG, or a heat map of its distance to another",
+        description=(
+            "Draw a row of flat-shaded orthographic views of the mesh. With --compare, colour "
+            "it by the distance from each of its vertices to the surface of OTHER, in % of "
+            "OTHER's bounding-box diagonal. docs/render.md describes the pictures."
+        ),
+    )
+    ren.add_argument("input", type=Path, help="mesh file to draw")
+    ren.add_argument("-o", "--output", type=Path, required=True, help="picture to write (.png)")
+    ren.add_argument(
+        "--compare", type=Path, metavar="OTHER", help="reference mesh: draw the distance to it"
+    )
+    ren.add_argument(
+        "--views",
+        type=bounded("a number of views", *views_range),
+        default=3,
+        metavar="N",
+        help=f"number of views side by side, {views_range[0]}..{views_range[1]} (3)",
+    )
+    ren.add_argument(
+        "--size",
+        type=bounded("a width", *size_range),
+        default=900,
+        metavar="PX",
+        help=f"picture width in pixels, {size_range[0]}..{size_range[1]} (900)",
+    )
+    ren.add_argument("--json", action="store_true", help="print the report as JSON")
+    ren.add_argument(
+        "--force", action="store_true", help="allow the output to overwrite an input file"
+    )
+    ren.set_defaults(run=_run_render)
+
+
+def _run_render(args: argparse.Namespace) -> int:
+    from meshwm._atomic import write_atomic
+    from meshwm.render import render_comparison, render_views
+
+    started = time.perf_counter()
+    out = args.output
+    if out.suffix.lower() != ".png":
+        raise ValueError(f"{out}: the picture is written as PNG; give the file a .png suffix")
+    if not out.resolve().parent.is_dir():
+        raise ValueError(f"{out}: folder {out.parent} does not exist")
+    for source in (args.input, args.compare):
+        if (
+            source is not None
+            and not args.force
+            and out.exists()
+            and source.exists()
+            and out.samefile(source)
+        ):
+            raise ValueError(f"{out}: would overwrite the input; use --force")
+    vertices, faces = read_mesh(args.input)
+    report: dict = {"input": str(args.input), "output": str(out)}
+    if args.compare is None:
+        png = render_views(vertices, faces, views=args.views, size=args.size, title=args.input.name)
+    else:
+        other_v, other_f = read_mesh(args.compare)
+        png, stats = render_comparison(
+            vertices,
+            faces,
+            other_v,
+            other_f,
+            views=args.views,
+            size=args.size,
+            title=f"{args.input.name} vs {args.compare.name}",
+        )
+        report["compare"] = str(args.compare)
+        report.update(stats)
+    write_atomic(out, png)
+    report.update(
+        views=args.views,
+        size=args.size,
+        width=int.from_bytes(png[16:20], "big"),  # from the PNG header (IHDR)
+        height=int.from_bytes(png[20:24], "big"),
+        faces=len(faces),
+        seconds=round(time.perf_counter() - started, 3),
+    )
+    if args.json:
+        print(json.dumps(_round(report), indent=2, sort_keys=True))
+    else:
+        line = (
+            f"{report['input']} -> {report['output']}: {args.views} "
+            f"view{'s' if args.views > 1 else ''}, "
+            f"{report['width']}×{report['height']} px"
+        )
+        if args.compare is not None:
+            line += (
+                f"; distance to {report['compare']}: max {100 * report['max_rel']:.4f}%, "
+                f"mean {100 * report['mean_rel']:.4f}%, RMS {100 * report['rms_rel']:.4f}% "
+                "of its bounding-box diagonal"
+            )
+        print(f"{line} ({report['seconds']:.2f} s)")
     return EXIT_OK
 
 
