@@ -329,17 +329,26 @@ def _run_embed(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
-def _check_png(path: Path, input_path: Path) -> None:
+def _check_png(
+    path: Path, inputs: Sequence[Path | None], *, what: str, force: bool | None = None
+) -> None:
+    """Refuse, before any work, a PNG output that is misnamed, homeless or an input.
+
+    ``force=None``: the command has no ``--force``; the input is never overwritten.
+    """
     if path.suffix.lower() != ".png":
-        raise ValueError(f"{path}: the mark is written as PNG; give the file a .png suffix")
-    if path.exists() and input_path.exists() and path.samefile(input_path):
-        raise ValueError(f"{path}: would overwrite the input")
+        raise ValueError(f"{path}: the {what} is written as PNG; give the file a .png suffix")
     if not path.resolve().parent.is_dir():
         raise ValueError(f"{path}: folder {path.parent} does not exist")
+    for source in inputs:
+        if source is not None and not force and path.exists() and source.exists():
+            if path.samefile(source):
+                hint = "" if force is None else "; use --force"
+                raise ValueError(f"{path}: would overwrite the input{hint}")
 
 
 def _run_extract(args: argparse.Namespace) -> int:
-    _check_png(args.output, args.input)
+    _check_png(args.output, [args.input], what="mark")
     expected = load_mark(args.mark, size=args.mark_size) if args.mark else None
     vertices, faces = read_mesh(args.input, max_faces=args.max_faces)
     result = extract(
@@ -576,19 +585,7 @@ def _run_render(args: argparse.Namespace) -> int:
 
     started = time.perf_counter()
     out = args.output
-    if out.suffix.lower() != ".png":
-        raise ValueError(f"{out}: the picture is written as PNG; give the file a .png suffix")
-    if not out.resolve().parent.is_dir():
-        raise ValueError(f"{out}: folder {out.parent} does not exist")
-    for source in (args.input, args.compare):
-        if (
-            source is not None
-            and not args.force
-            and out.exists()
-            and source.exists()
-            and out.samefile(source)
-        ):
-            raise ValueError(f"{out}: would overwrite the input; use --force")
+    _check_png(out, [args.input, args.compare], what="picture", force=args.force)
     vertices, faces = read_mesh(args.input)
     report: dict = {"input": str(args.input), "output": str(out)}
     if args.compare is None:
