@@ -257,23 +257,33 @@ def _carriers(
     return use
 
 
-def _decompose(gim: NDArray[np.float64]) -> list[dict[str, NDArray[np.float64]]]:
-    return [mrr_decompose(gim[..., k]) for k in range(3)]
+class _Slots(NamedTuple):
+    """What embedding and extraction both derive from a geometry image, a key and a length."""
+
+    coeffs: list[dict[str, NDArray[np.float64]]]  # MRR of x, y, z
+    frame: Frame
+    weight: NDArray[np.float64]  # fuzzy weight per level-3 position
+    canon: NDArray[np.float64]  # level-3 coefficient vectors in the frame, (bands, m, m, 3)
+    layout: _Layout
+    use: NDArray[np.bool_]  # the slots that carry their bit
+    channel: NDArray[np.int64]  # the frame axis of each slot
+    values: NDArray[np.float64]  # each slot's coefficient in the frame, over the scale
 
 
-def _analyse(gim: NDArray[np.float64], params: WatermarkParams):
-    coeffs = _decompose(gim)
+def _slots(
+    gim: NDArray[np.float64], params: WatermarkParams, key: str | bytes, n_bits: int
+) -> _Slots:
+    coeffs = [mrr_decompose(gim[..., k]) for k in range(3)]
     ca = np.stack([coeffs[k]["a"] for k in range(3)], axis=-1)
     frame = canonical_frame(ca)
     weight = perceptual_weight(ca, block=_LEVEL3_BLOCK // 2)
-    # Level-3 coefficient vectors in the canonical frame, (bands, m, m, 3).
     world = np.stack([np.stack([coeffs[k][b] for k in range(3)], axis=-1) for b in params.bands])
     canon = world @ frame.axes / frame.scale
-    return coeffs, frame, weight, canon
-
-
-def _channel_index(params: WatermarkParams) -> NDArray[np.int64]:
-    return np.array([CHANNELS.index(c) for c in params.channels])
+    layout = _layout(params, key, n_bits)
+    use = _carriers(layout, weight, n_bits, params.min_carriers)
+    channel = np.array([CHANNELS.index(c) for c in params.channels])[layout.channel]
+    values = canon[layout.band, layout.row, layout.col, channel]
+    return _Slots(coeffs, frame, weight, canon, layout, use, channel, values)
 
 
 def _check_gim(gim: NDArray, params: WatermarkParams) -> NDArray[np.float64]:
@@ -340,11 +350,7 @@ def embed_gim(
     params = params or WatermarkParams()
     gim = _check_gim(gim, params)
     bits = _check_bits(bits)
-    coeffs, frame, weight, canon = _analyse(gim, params)
-    layout = _layout(params, key, len(bits))
-    use = _carriers(layout, weight, len(bits), params.min_carriers)
-    ch = _channel_index(params)[layout.channel]
-    c = canon[layout.band, layout.row, layout.col, ch]
+    coeffs, frame, weight, canon, layout, use, ch, c = _slots(gim, params, key, len(bits))
     t = c / params.step - layout.dither
     target = np.where(
         bits[np.maximum(layout.bit, 0)] == 1, params.remainder_one, params.remainder_zero
@@ -411,12 +417,9 @@ def extract_gim(
     gim = _check_gim(gim, params)
     if isinstance(n_bits, bool) or not isinstance(n_bits, (int, np.integer)) or n_bits < 1:
         raise ValueError(f"n_bits must be a positive integer, got {n_bits!r}")
-    _, _, weight, canon = _analyse(gim, params)
-    layout = _layout(params, key, int(n_bits))
-    use = _carriers(layout, weight, int(n_bits), params.min_carriers)
-    ch = _channel_index(params)[layout.channel]
-    c = canon[layout.band, layout.row, layout.col, ch][use]
-    r = np.mod(c / params.step - layout.dither[use], 1.0)
+    slots = _slots(gim, params, key, int(n_bits))
+    layout, use = slots.layout, slots.use
+    r = np.mod(slots.values[use] / params.step - layout.dither[use], 1.0)
     vote = np.cos(2 * np.pi * (r - params.remainder_one)) - np.cos(
         2 * np.pi * (r - params.remainder_zero)
     )
