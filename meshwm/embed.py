@@ -69,6 +69,7 @@ from .fuzzy import EMBEDDING_CLASSES, strength_class
 from .geometry_image import geometry_image_to_mesh, mesh_to_geometry_image
 from .grid import GridError, recover_grid
 from .keying import keyed_permutation, keyed_uniform
+from .mark import _check_bits as check_mark_bits
 from .mark import default_mark
 from .mask import perceptual_weight
 from .metrics import (
@@ -440,12 +441,10 @@ def extract_gim(
 def _check_mark(mark: NDArray | None) -> NDArray[np.uint8]:
     if mark is None:
         return default_mark(32)
-    arr = np.asarray(mark)
-    if arr.ndim != 2 or arr.shape[0] != arr.shape[1] or arr.shape[0] < 2:
+    arr = check_mark_bits(mark)  # 2-D, 0/1, sane size
+    if arr.shape[0] != arr.shape[1] or arr.shape[0] < 2:
         raise ValueError(f"mark must be a square 2-D 0/1 image, got shape {arr.shape}")
-    if not np.all((arr == 0) | (arr == 1)):
-        raise ValueError("mark must hold only 0 and 1")
-    return arr.astype(np.uint8)
+    return arr
 
 
 def embed(
