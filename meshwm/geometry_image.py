@@ -44,6 +44,8 @@ References
 
 from __future__ import annotations
 
+import functools
+import hashlib
 import time
 from typing import NamedTuple
 
@@ -58,7 +60,8 @@ from meshwm.clean import clean_mesh, edge_topology_counts, unique_edges
 
 __all__ = [
     "GeometryImage",
-    "fiducial_cells",
+    "code_cells",
+    "flipped_cells",
     "geometry_image_to_mesh",
     "grid_faces",
     "mesh_to_geometry_image",
@@ -847,16 +850,88 @@ def _count_loops(n_vertices: int, edges: NDArray[np.int64], border: NDArray[np.b
     return len(np.unique(labels[np.unique(b)]))
 
 
-def fiducial_cells(n: int) -> NDArray[np.int64]:
-    """The three cells whose diagonal is flipped to mark the centre of an n × n grid.
+_CODE_TAG = b"meshwm/grid/v2/"
 
-    With ``c = n // 2`` these are cells (c-1, c-1), (c-1, c) and (c, c): three of the four
-    cells around sample (c, c), all but (c, c-1).  The set is not symmetric under any of the
-    eight symmetries of the square, so a mesh read with its winding reversed (the transposed
-    grid) does not verify.  See :func:`grid_faces`.
+
+@functools.lru_cache(maxsize=16)
+def _code_bits(n: int) -> NDArray[np.bool_]:
+    """The public position code of an n × n grid: one bit per code cell, row-major (read-only).
+
+    SHA-256 in counter mode: block k is ``sha256(b"meshwm/grid/v2/" + str(n) + b"/" + k)`` with
+    k as 8 big-endian bytes; the blocks are concatenated and read most significant bit first.
+    No key and no random generator: every machine and every numpy version gets the same bits.
     """
-    c = n // 2
-    return np.array([[c - 1, c - 1], [c - 1, c], [c, c]], dtype=np.int64)
+    m = len(range(2, n - 3, 2))
+    count = m * m
+    tag = _CODE_TAG + str(n).encode() + b"/"
+    blocks = b"".join(
+        hashlib.sha256(tag + k.to_bytes(8, "big")).digest() for k in range(-(-count // 256))
+    )
+    bits = np.unpackbits(np.frombuffer(blocks, dtype=np.uint8))[:count].astype(bool)
+    bits = bits.reshape(m, m)
+    bits.setflags(write=False)
+    return bits
+
+
+def code_cells(n: int) -> NDArray[np.int64]:
+    """The cells of an n × n grid whose diagonal carries a bit of the position code.
+
+    They are the cells (i, j) with i and j both even and 2 <= i, j <= n - 4, in row-major
+    order: no two share a sample (so every sample lies in at most one of them), and none
+    touches the border of the grid (border cells are the only ones a welded seam can collapse,
+    and :mod:`meshwm.grid` handles them by their fixed diagonals).
+
+    Parameters
+    ----------
+    n : int
+        Grid size N.
+
+    Returns
+    -------
+    (k, 2) int64 ndarray
+        Row and column of each code cell's corner p00; ``k = (N/2 - 2)^2`` for even N.
+
+    Examples
+    --------
+    >>> code_cells(8).tolist()
+    [[2, 2], [2, 4], [4, 2], [4, 4]]
+    """
+    steps = np.arange(2, n - 3, 2, dtype=np.int64)
+    i, j = np.meshgrid(steps, steps, indexing="ij")
+    return np.stack([i.ravel(), j.ravel()], axis=1)
+
+
+def flipped_cells(n: int) -> NDArray[np.int64]:
+    """The code cells whose diagonal is flipped: the position code of an n × n grid.
+
+    Each code cell (see :func:`code_cells`) is flipped iff its bit of a public, keyless code is 1.
+    The bits are SHA-256 in counter mode over the tag ``b"meshwm/grid/v2/" + str(n)`` (hashlib
+    only, never a random generator), so every machine writes and reads the same code, and the
+    code of one N differs from the code of any other: the code tells N too.
+
+    Parameters
+    ----------
+    n : int
+        Grid size N.
+
+    Returns
+    -------
+    (m, 2) int64 ndarray
+        Row and column of each flipped cell's corner p00, row-major; about half the code cells.
+
+    Notes
+    -----
+    A flipped code cell (i, j) has the diagonal p01-p10 although i + j is even, so it joins two
+    samples with i + j odd.  Those two get 5 neighbours instead of 4, the other two corners 7
+    instead of 8.  Since code cells share no sample, every interior sample touches at most
+    one flipped cell: the valences stay in {7, 8} for i + j even and {4, 5} for i + j odd, and a
+    flipped cell is recognisable locally (a diagonal between two valence-5 samples whose
+    triangles' third corners have valence 7).  Any window of a few dozen code cells is, with
+    overwhelming probability, found nowhere else in the code, in no orientation or mirror image,
+    and in the code of no other N; so a piece of the grid tells where it is
+    (:func:`meshwm.grid.recover_grid`).
+    """
+    return code_cells(n)[_code_bits(n).ravel()]
 
 
 def grid_faces(n: int) -> NDArray[np.int64]:
@@ -865,28 +940,28 @@ def grid_faces(n: int) -> NDArray[np.int64]:
     Cell (i, j) has corners ``p00 = i*N + j``, ``p01 = p00 + 1``, ``p10 = p00 + N`` and
     ``p11 = p10 + 1``.  Where i + j is even its diagonal is p00-p11, triangles (p00, p01, p11)
     and (p00, p11, p10); where it is odd the diagonal is p01-p10, triangles (p00, p01, p10)
-    and (p01, p11, p10).  The three :func:`fiducial_cells` around the centre sample
-    (N/2, N/2) take the other diagonal.
+    and (p01, p11, p10).  The :func:`flipped_cells` (a position code on the cells with i and j
+    both even, off the border) take the other diagonal.
 
     Notes
     -----
     Alternating diagonals (a "4-8" triangulation) make the grid readable from connectivity
-    alone: away from the centre, samples with i + j even have 8 neighbours, the others 4.
+    alone: samples with i + j even have 8 neighbours, the others 4.
 
-    The flipped centre cells are a *fiducial*: the centre sample gets 5 neighbours, which
-    have 5, 5, 6, 6 and 8 neighbours themselves; the one with 8 is sample (N/2 + 1, N/2 - 1).
-    Blind extraction (:mod:`meshwm.grid`) finds this pattern in the received mesh and reads
-    the whole grid from there, one triangle at a time.  Only the
-    triangulation of three cells changes, not a single sample, so the surface moves by no
-    more than the non-planarity of three grid quads.
+    The flipped code cells change that to 7 and 5 around them.  They are a *position code*:
+    the pattern of flipped cells in any patch of a few dozen code cells occurs nowhere else,
+    in no orientation, so blind extraction (:mod:`meshwm.grid`) can tell from any large enough
+    piece of the mesh (a cropped copy, one of several pieces) which grid samples its vertices
+    are, and read the rest one triangle at a time.  Only the triangulation of some cells
+    changes, not a single sample, so the surface moves by no more than the non-planarity of a
+    grid quad.
     """
     i, j = np.meshgrid(np.arange(n - 1), np.arange(n - 1), indexing="ij")
     p00 = (i * n + j).ravel()
     p01, p10, p11 = p00 + 1, p00 + n, p00 + n + 1
     even = (i + j) % 2 == 0
-    if n >= 4:
-        fid = fiducial_cells(n)
-        even[fid[:, 0], fid[:, 1]] = ~even[fid[:, 0], fid[:, 1]]
+    flip = flipped_cells(n)
+    even[flip[:, 0], flip[:, 1]] = False
     even = even.ravel()[:, None]
     t1 = np.where(even, np.stack([p00, p01, p11], axis=1), np.stack([p00, p01, p10], axis=1))
     t2 = np.where(even, np.stack([p00, p11, p10], axis=1), np.stack([p01, p11, p10], axis=1))

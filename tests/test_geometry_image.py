@@ -11,7 +11,8 @@ from scipy.spatial.transform import Rotation
 from meshwm._validate import MeshError
 from meshwm.clean import edge_topology_counts
 from meshwm.geometry_image import (
-    fiducial_cells,
+    code_cells,
+    flipped_cells,
     geometry_image_to_mesh,
     grid_faces,
     mesh_to_geometry_image,
@@ -49,34 +50,44 @@ def test_grid_faces_cover_every_cell_counter_clockwise():
 
 
 def test_grid_diagonals_alternate_so_connectivity_shows_the_grid():
-    """Interior samples with i + j even have 8 neighbours, the others 4 (a 4-8 mesh), except
-    around the centre fiducial, whose three flipped cells leave a unique pattern."""
-    n = 16
+    """Interior samples with i + j even have 8 neighbours, the others 4 (a 4-8 mesh), except at
+    the flipped code cells, whose corners have 7 and 5; diagonals join two i + j even samples
+    except in a flipped code cell, where they join its two odd corners."""
+    n = 32
     f = grid_faces(n)
     edges = np.unique(
         np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), 1), axis=0
     )
     valence = np.bincount(edges.ravel(), minlength=n * n).reshape(n, n)
     i, j = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
-    c = n // 2
-    near_fiducial = (abs(i - c + 0.5) <= 1.5) & (abs(j - c + 0.5) <= 1.5)
-    inner = (i > 0) & (i < n - 1) & (j > 0) & (j < n - 1) & ~near_fiducial
-    assert np.all(valence[inner & ((i + j) % 2 == 0)] == 8)
-    assert np.all(valence[inner & ((i + j) % 2 == 1)] == 4)
+    flipped = flipped_cells(n)
+    near = np.zeros((n, n), dtype=bool)
+    for a in (0, 1):
+        for b in (0, 1):
+            near[flipped[:, 0] + a, flipped[:, 1] + b] = True
+    inner = (i > 0) & (i < n - 1) & (j > 0) & (j < n - 1)
+    even = (i + j) % 2 == 0
+    assert np.all(valence[inner & ~near & even] == 8)
+    assert np.all(valence[inner & ~near & ~even] == 4)
+    assert np.all(valence[near & even] == 7)
+    assert np.all(valence[near & ~even] == 5)
     parity = ((i + j) % 2).ravel()
-    flipped = set(map(tuple, fiducial_cells(n).tolist()))
     rows, cols = edges // n, edges % n
-    cell = list(zip(rows.min(axis=1), cols.min(axis=1), strict=True))
-    diagonal = np.abs(edges[:, 0] // n - edges[:, 1] // n) == 1
-    diagonal &= np.abs(edges[:, 0] % n - edges[:, 1] % n) == 1
+    diagonal = (np.abs(rows[:, 0] - rows[:, 1]) == 1) & (np.abs(cols[:, 0] - cols[:, 1]) == 1)
     even_pair = (parity[edges[:, 0]] == 0) & (parity[edges[:, 1]] == 0)
-    in_fiducial = np.array([tuple(map(int, (a, b))) in flipped for a, b in cell]) & diagonal
-    assert np.array_equal(diagonal & ~in_fiducial, even_pair & ~in_fiducial)
-    # The fiducial: the centre has 5 neighbours with valences 5, 5, 6, 6, 8.
-    centre = c * n + c
-    ring = np.concatenate([edges[edges[:, 0] == centre, 1], edges[edges[:, 1] == centre, 0]])
-    assert sorted(valence.ravel()[ring].tolist()) == [5, 5, 6, 6, 8]
-    assert (c + 1) * n + c - 1 in ring
+    cell = rows.min(axis=1) * n + cols.min(axis=1)
+    in_code = np.isin(cell, flipped[:, 0] * n + flipped[:, 1]) & diagonal
+    assert np.array_equal(diagonal & ~in_code, even_pair & ~in_code)
+    assert not np.any(even_pair[in_code])  # a flipped cell's diagonal joins its odd corners
+
+
+def test_code_cells_keep_off_the_border_and_share_no_sample():
+    n = 64
+    cells = code_cells(n)
+    shifts = np.array([[0, 0], [0, 1], [1, 0], [1, 1]])
+    corners = (cells[None, :, :] + shifts[:, None, :]).reshape(-1, 2)
+    assert len(np.unique(corners[:, 0] * n + corners[:, 1])) == 4 * len(cells)
+    assert corners.min() >= 2 and corners.max() <= n - 3
 
 
 def test_shape_dtype_and_no_nan(spot_gim):

@@ -1,20 +1,25 @@
 """Tests for :mod:`meshwm.grid`: reading the N×N grid back from a mesh's connectivity alone.
 
 The meshes are the ones meshwm writes (:func:`meshwm.geometry_image.geometry_image_to_mesh`):
-an open synthetic grid, and the welded geometry images of the bundled meshes at N = 128.
+an open synthetic grid, and the welded geometry images of the bundled meshes at N = 128; whole,
+or cropped (:func:`meshwm.attacks.crop`), or cut into pieces.
 """
 
 from __future__ import annotations
+
+import hashlib
+from pathlib import Path
 
 import numpy as np
 import pytest
 import trimesh
 from numpy.testing import assert_array_equal
 
-from meshwm.attacks import apply_attack
+from meshwm.attacks import apply_attack, crop
 from meshwm.clean import clean_mesh
 from meshwm.geometry_image import (
-    fiducial_cells,
+    code_cells,
+    flipped_cells,
     geometry_image_to_mesh,
     mesh_to_geometry_image,
 )
@@ -206,7 +211,7 @@ def _cell_faces(n: int, i: int, j: int) -> slice:
 
 
 def _plain_cell(n: int, i: int, j: int) -> np.ndarray:
-    """The two triangles of cell (i, j) with the regular (non-fiducial) diagonal."""
+    """The two triangles of cell (i, j) with the 4-8 diagonal (as if not a flipped code cell)."""
     p00 = i * n + j
     p01, p10, p11 = p00 + 1, p00 + n, p00 + n + 1
     if (i + j) % 2 == 0:
@@ -214,23 +219,26 @@ def _plain_cell(n: int, i: int, j: int) -> np.ndarray:
     return np.array([[p00, p01, p10], [p01, p11, p10]])
 
 
-@pytest.mark.parametrize("cells", [[0], [1], [2], [0, 1, 2]])
-def test_fiducial_flipped_back_is_refused(open_grid, cells):
-    _, v, f = open_grid
+def _unflip(f: np.ndarray, n: int, cells) -> np.ndarray:
     f = f.copy()
-    n = 64
-    for k in cells:
-        i, j = fiducial_cells(n)[k]
+    for i, j in cells:
         f[_cell_faces(n, i, j)] = _plain_cell(n, i, j)
-    with pytest.raises(GridError, match="0 fiducial candidates"):
-        recover_grid(v, f)
+    return f
 
 
-def test_face_removed_at_the_fiducial_is_refused(open_grid):
+def test_without_the_position_code_no_grid_is_found(open_grid):
+    """A plain 4-8 grid has no flipped code cell: nothing to seed from, nothing to orient by."""
     _, v, f = open_grid
-    i, j = fiducial_cells(64)[0]
-    with pytest.raises(GridError):
-        recover_grid(v, np.delete(f, _cell_faces(64, i, j).start, axis=0))
+    with pytest.raises(GridError, match="0 hypotheses"):
+        recover_grid(v, _unflip(f, 64, flipped_cells(64)))
+
+
+@pytest.mark.parametrize("k", [0, 100, 300])
+def test_one_code_cell_flipped_back_is_refused(open_grid, k):
+    """A wrong diagonal is a contradiction the walk meets: refused, never read around."""
+    _, v, f = open_grid
+    with pytest.raises(GridError, match="no 64 x 64 geometry-image grid"):
+        recover_grid(v, _unflip(f, 64, flipped_cells(64)[k : k + 1]))
 
 
 @pytest.mark.parametrize("cell", [(10, 10), (40, 20)])
@@ -252,3 +260,280 @@ def test_too_many_vertices_is_refused(open_grid):
     _, v, f = open_grid
     with pytest.raises(GridError, match="vertices is more than"):
         recover_grid(np.vstack([v, [[9.0, 9.0, 9.0]]]), f)
+
+
+# --- the position code ----------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("n", [16, 64, 256, 2048])
+def test_code_cells_share_no_sample_and_keep_off_the_border(n):
+    cells = code_cells(n)
+    assert len(cells) == (n // 2 - 2) ** 2
+    assert np.all(cells % 2 == 0)
+    assert cells.min() >= 2 and cells.max() <= n - 4  # corners 2 .. N-3: off the border ring
+    flipped = flipped_cells(n)
+    assert 0.3 < len(flipped) / len(cells) < 0.7
+    assert np.all(np.isin(flipped[:, 0] * n + flipped[:, 1], cells[:, 0] * n + cells[:, 1]))
+
+
+def test_code_is_sha256_of_a_public_tag():
+    """SHA-256 in counter mode, no random stream: the same bits on every machine, and each N
+    has its own code."""
+    n = 64
+    stream = b"".join(
+        hashlib.sha256(b"meshwm/grid/v2/64/" + k.to_bytes(8, "big")).digest() for k in range(4)
+    )
+    bits = np.unpackbits(np.frombuffer(stream, dtype=np.uint8))[: len(code_cells(n))]
+    assert_array_equal(flipped_cells(n), code_cells(n)[bits.astype(bool)])
+    cells = code_cells(64)
+    key = cells[:, 0] * 1000 + cells[:, 1]
+    in_small = np.isin(key, flipped_cells(64)[:, 0] * 1000 + flipped_cells(64)[:, 1])
+    in_large = np.isin(key, flipped_cells(128)[:, 0] * 1000 + flipped_cells(128)[:, 1])
+    assert not np.array_equal(in_small, in_large)
+
+
+@pytest.mark.parametrize("n", [16, 32, 64, 128, 256, 512, 1024, 2048])
+def test_code_has_no_symmetry_of_the_square(n):
+    """No symmetry of the square (other than the identity) maps the flipped cells onto
+    themselves, so neither a turned nor a mirrored reading (reversed winding) can verify."""
+    flipped = flipped_cells(n)
+    key = np.sort(flipped[:, 0] * n + flipped[:, 1])
+    i, j = flipped[:, 0], flipped[:, 1]
+    m = n - 2  # cell (i, j) -> (m - i, j) etc.: cells map to cells
+    images = [
+        (j, m - i),
+        (m - i, m - j),
+        (m - j, i),
+        (j, i),
+        (m - i, j),
+        (m - j, m - i),
+        (i, m - j),
+    ]
+    for a, b in images:
+        assert not np.array_equal(np.sort(a * n + b), key)
+
+
+# --- cropped meshes -------------------------------------------------------------------------
+
+
+def _source_of(full_v: np.ndarray, part_v: np.ndarray) -> np.ndarray:
+    """Index in ``full_v`` of each vertex of ``part_v`` (a crop keeps positions exactly)."""
+    where = {tuple(p): k for k, p in enumerate(full_v.tolist())}
+    assert len(where) == len(full_v)  # positions identify vertices
+    return np.array([where[tuple(p)] for p in part_v.tolist()], dtype=np.int64)
+
+
+def _expected(full_index: np.ndarray, full_v, part_v) -> np.ndarray:
+    """(N, N) vertex of ``part_v`` that each sample must read as, -1 where it is gone."""
+    remap = np.full(len(full_v), -1, dtype=np.int64)
+    remap[_source_of(full_v, part_v)] = np.arange(len(part_v))
+    return remap[full_index]
+
+
+def _check_partial(grid, expected: np.ndarray, n_vertices: int) -> float:
+    """No false sample; returns the fraction of the piece's vertices that were read."""
+    assert grid.index.shape == expected.shape
+    found = grid.index >= 0
+    assert_array_equal(grid.index[found], expected[found])  # nothing false
+    assert np.all(np.isnan(grid.gim[~found]))
+    assert grid.coverage == pytest.approx(found.mean())
+    return len(np.unique(grid.index[found])) / n_vertices
+
+
+def _away_from_cuts(n_vertices: int, f: np.ndarray, min_faces: int = 400) -> np.ndarray:
+    """Vertices with a closed fan (no face of theirs was removed, none on the grid's own open
+    border) in a component of at least ``min_faces`` faces (enough to hold the code)."""
+    directed = {
+        (int(a), int(b)) for a, b in np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]])
+    }
+    closed = np.ones(n_vertices, dtype=bool)
+    for a, b in directed:
+        if (b, a) not in directed:
+            closed[a] = closed[b] = False
+    mesh = trimesh.Trimesh(np.zeros((n_vertices, 3)), f, process=False)
+    big = np.zeros(n_vertices, dtype=bool)
+    for part in trimesh.graph.connected_components(mesh.face_adjacency, nodes=np.arange(len(f))):
+        if len(part) >= min_faces:
+            big[np.unique(f[part])] = True
+    return closed & big
+
+
+def _check_cut(grid, expected: np.ndarray, v: np.ndarray, f: np.ndarray) -> None:
+    """No false sample, and every vertex away from the cuts is read (at a cut, border samples
+    whose neighbours lost faces may stay unread: a fold could not be ruled out there)."""
+    _check_partial(grid, expected, len(v))
+    read = np.zeros(len(v), dtype=bool)
+    read[grid.index[grid.index >= 0]] = True
+    away = _away_from_cuts(len(v), f)
+    assert away.sum() > 0.5 * len(v)
+    assert np.all(read[away])
+
+
+@pytest.fixture(scope="module")
+def sheet():
+    """The open synthetic grid at N = 64 with its index (row-major: sample k is vertex k)."""
+    gim = _synthetic_gim(64)
+    v, f = geometry_image_to_mesh(gim)
+    return v, f, np.arange(64 * 64).reshape(64, 64)
+
+
+@pytest.mark.parametrize("fraction", [0.1, 0.3, 0.5])
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_cropped_sheet_reads_every_surviving_vertex(sheet, fraction, seed):
+    v, f, index = sheet
+    cv, cf = crop(v, f, seed=seed, fraction=fraction)
+    cv2, cf2, inverse = _shuffle(cv, cf, seed)
+    grid = recover_grid(cv2, cf2)
+    assert grid.n == 64
+    expected = _expected(index, v, cv)
+    expected = np.where(expected >= 0, inverse[np.maximum(expected, 0)], -1)
+    _check_cut(grid, expected, cv2, cf2)
+    assert _check_partial(grid, expected, len(cv)) > 0.95
+    assert grid.coverage < 1.0 and grid.hypotheses >= 8
+
+
+def test_crop_with_the_centre_removed(sheet):
+    """A hole where the old centre fiducial was: the code is everywhere else."""
+    v, f, index = sheet
+    centre = v[f].mean(axis=1)[:, :2] - v[:, :2].mean(axis=0)
+    keep = np.linalg.norm(centre, axis=1) > 0.2
+    cv, cf = _compact(v, f[keep])
+    grid = recover_grid(cv, cf)
+    _check_cut(grid, _expected(index, v, cv), cv, cf)
+    assert grid.index[32, 32] == -1
+
+
+def _compact(v: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    used = np.zeros(len(v), dtype=bool)
+    used[f.ravel()] = True
+    return v[used], (np.cumsum(used) - 1)[f]
+
+
+def test_pieces_are_read_and_merged(sheet):
+    """Two bands removed: three components, each seeded and read on its own, then merged."""
+    v, f, index = sheet
+    x = v[f].mean(axis=1)[:, 1]
+    keep = ~(((x > 0.3) & (x < 0.35)) | ((x > 0.65) & (x < 0.7)))
+    cv, cf = _compact(v, f[keep])
+    grid = recover_grid(cv, cf)
+    assert grid.components == 3
+    _check_cut(grid, _expected(index, v, cv), cv, cf)
+
+
+def test_small_piece_is_ignored(sheet):
+    """A piece too small to hold a few dozen code bits is left out (its samples read -1)."""
+    v, f, index = sheet
+    x = v[f].mean(axis=1)[:, 1]
+    keep = (x < 0.6) | (x > 0.65)
+    keep &= ~((x > 0.65) & (v[f].mean(axis=1)[:, 0] > 0.1))  # a strip 3 samples wide is left
+    cv, cf = _compact(v, f[keep])
+    grid = recover_grid(cv, cf)
+    assert grid.components == 1
+    expected = _expected(index, v, cv)
+    found = grid.index >= 0
+    assert_array_equal(grid.index[found], expected[found])
+    assert np.all(grid.index[:, 42:] == -1)
+
+
+def test_cropped_sheet_with_reversed_winding(sheet):
+    v, f, index = sheet
+    cv, cf = crop(v, f, seed=4, fraction=0.3)
+    grid = recover_grid(cv, cf[:, ::-1])
+    _check_cut(grid, _expected(index, v, cv), cv, cf)
+    assert_array_equal(grid.index, recover_grid(cv, cf).index)
+
+
+def test_cropped_mesh_gives_n_by_the_code_not_the_face_count(sheet):
+    """A fifth of the faces fit a 32-grid; 32 is tried first and the code says 64."""
+    v, f, index = sheet
+    cv, cf = crop(v, f, seed=1, fraction=0.8)
+    assert 2 * 31**2 >= len(cf)
+    grid = recover_grid(cv, cf)
+    assert grid.n == 64
+    assert grid.hypotheses % 3 == 0  # sizes 32, 64 and 128 tried
+    _check_cut(grid, _expected(index, v, cv), cv, cf)
+    sized = recover_grid(cv, cf, size=64)
+    assert_array_equal(sized.index, grid.index)
+    assert sized.hypotheses < grid.hypotheses
+    with pytest.raises(GridError):
+        recover_grid(cv, cf, size=32)
+
+
+def test_partial_result_does_not_depend_on_the_order(sheet):
+    v, f, _ = sheet
+    cv, cf = crop(v, f, seed=5, fraction=0.4)
+    grid = recover_grid(cv, cf)
+    for seed in (1, 2):
+        v2, f2, inverse = _shuffle(cv, cf, seed)
+        moved = recover_grid(v2, f2)
+        assert_array_equal(moved.index, np.where(grid.index >= 0, inverse[grid.index], -1))
+        assert moved.hypotheses == grid.hypotheses
+        assert moved.coverage == grid.coverage
+
+
+@pytest.mark.parametrize("fraction", [0.1, 0.3, 0.5])
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_cropped_welded_mesh_has_no_false_sample(welded, fraction, seed):
+    """Spot at N = 128: a crop can leave pieces connected only across a welded seam, which
+    are seeded again; every sample read is right, and nearly every vertex is read."""
+    _, v, f = welded("spot_mesh")
+    full = recover_grid(v, f)
+    cv, cf = crop(v, f, seed=seed, fraction=fraction)
+    grid = recover_grid(cv, cf)
+    assert grid.n == SIZE
+    # Fold tips were filled from a neighbour in the complete reading: they are no sample here.
+    expected = _expected(full.index, v, cv)
+    read = _check_partial(grid, expected, len(cv))
+    assert read >= 0.97
+
+
+def test_size_is_checked(sheet):
+    v, f, _ = sheet
+    with pytest.raises(ValueError, match="power of two"):
+        recover_grid(v, f, size=100)
+
+
+# --- meshes that only look like a grid ------------------------------------------------------
+
+
+def test_random_diagonals_are_refused(sheet):
+    v, _, _ = sheet
+    n = 64
+    rng = np.random.default_rng(3)
+    i, j = np.meshgrid(np.arange(n - 1), np.arange(n - 1), indexing="ij")
+    p00 = (i * n + j).ravel()
+    p01, p10, p11 = p00 + 1, p00 + n, p00 + n + 1
+    main = (rng.random(len(p00)) < 0.5)[:, None]
+    t1 = np.where(main, np.stack([p00, p01, p11], 1), np.stack([p00, p01, p10], 1))
+    t2 = np.where(main, np.stack([p00, p11, p10], 1), np.stack([p01, p11, p10], 1))
+    with pytest.raises(GridError, match="geometry-image grid"):
+        recover_grid(v, np.stack([t1, t2], 1).reshape(-1, 3))
+
+
+def test_triangulated_point_cloud_is_refused():
+    """A Delaunay triangulation of random points in the square: no grid at all."""
+    from scipy.spatial import Delaunay
+
+    pts = np.random.default_rng(0).random((3000, 2))
+    tri = Delaunay(pts).simplices
+    with pytest.raises(GridError, match="geometry-image grid"):
+        recover_grid(np.c_[pts, np.zeros(len(pts))], tri)
+
+
+# --- the development meshes -----------------------------------------------------------------
+
+DEV = Path(__file__).resolve().parent.parent.parent / "shared" / "meshes"
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not DEV.is_dir(), reason="../shared/meshes is not there")
+@pytest.mark.parametrize("path", sorted(DEV.glob("*.ply")), ids=lambda p: p.stem)
+def test_every_development_mesh_reads_back_at_256(path):
+    mesh = trimesh.load(path, process=False)
+    g = mesh_to_geometry_image(np.asarray(mesh.vertices), np.asarray(mesh.faces), size=256)
+    v, f = geometry_image_to_mesh(g.gim, g.weld)
+    grid = recover_grid(v, f)
+    assert grid.n == 256 and grid.coverage == 1.0
+    differs = np.any(grid.gim != g.gim, axis=-1)
+    assert np.all(_border(256)[differs])  # fold tips only
+    assert_array_equal(np.unique(grid.index), np.arange(len(v)))
