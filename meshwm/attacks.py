@@ -39,7 +39,7 @@ from scipy.ndimage import correlate
 from scipy.sparse.csgraph import connected_components
 
 from ._validate import check_mesh
-from .clean import unique_edges
+from .clean import uniform_smoothing_operator
 from .grid import GridError, recover_grid
 from .io import WRITE_SUFFIXES, read_mesh, write_mesh
 
@@ -282,33 +282,6 @@ def round_trip(vertices: NDArray, faces: NDArray, *, seed: int = 0, suffix: str 
 # --------------------------------------------------------------------------------------------
 
 
-def _uniform_smoothing_operator(
-    n_vertices: int, faces: NDArray[np.int64]
-) -> tuple[sp.csr_matrix, NDArray[np.bool_]]:
-    """Row-stochastic neighbour-mean matrix M and the mask of vertices that have neighbours.
-
-    An interior vertex averages all its edge neighbours.  A boundary vertex (one on an edge of
-    a single face) averages only its neighbours along the boundary, so a border is smoothed as
-    a polyline of its own and does not shrink into the surface (MeshLab's "1D boundary
-    smoothing", the default of its Laplacian filter).
-    """
-    edges, inverse = unique_edges(faces)
-    edges_used = edges[:, 0] != edges[:, 1]
-    border = np.bincount(inverse, minlength=len(edges)) == 1
-    edges, border = edges[edges_used], border[edges_used]
-    on_border = np.zeros(n_vertices, dtype=bool)
-    on_border[edges[border].ravel()] = True
-    rows = np.concatenate([edges[:, 0], edges[:, 1]])
-    cols = np.concatenate([edges[:, 1], edges[:, 0]])
-    keep = ~on_border[rows] | np.concatenate([border, border])
-    w = sp.csr_matrix(
-        (np.ones(int(keep.sum())), (rows[keep], cols[keep])), shape=(n_vertices, n_vertices)
-    )
-    degree = np.asarray(w.sum(axis=1)).ravel()
-    inv = np.divide(1.0, degree, out=np.zeros(n_vertices), where=degree > 0)
-    return (sp.diags(inv) @ w).tocsr(), degree > 0
-
-
 def laplacian(
     vertices: NDArray, faces: NDArray, *, seed: int = 0, lam: float = 0.1, iterations: int = 5
 ) -> Mesh:
@@ -333,7 +306,7 @@ def laplacian(
     """
     opts = _check("laplacian", lam=lam, iterations=iterations)
     v, f = check_mesh(vertices, faces)
-    step, moved = _uniform_smoothing_operator(len(v), f)
+    step, moved = uniform_smoothing_operator(len(v), f)
     for _ in range(opts["iterations"]):
         v[moved] += opts["lam"] * ((step @ v)[moved] - v[moved])
     return v, f
@@ -614,6 +587,11 @@ def _grid_of(v: NDArray[np.float64], f: NDArray[np.int64]) -> NDArray[np.int64]:
         grid = recover_grid(v[used], local[main])
     except GridError as exc:
         raise GridError(f"gim attacks need a mesh written by meshwm ({exc})") from None
+    if np.any(grid.index < 0):
+        raise GridError(
+            f"gim attacks need a complete geometry image; {1 - grid.coverage:.1%} of the "
+            "samples are missing (the mesh was cropped)"
+        )
     return used[grid.index]
 
 

@@ -43,6 +43,7 @@ __all__ = [
     "edge_topology_counts",
     "euler_characteristic",
     "largest_component",
+    "uniform_smoothing_operator",
     "unique_edges",
 ]
 
@@ -459,3 +460,33 @@ def clean_mesh(
     report["components"] = int(n_comp)
     report["components_passed_through"] = int(n_comp - 1)
     return CleanMesh(mv, mf, ov, of, report)
+
+
+def uniform_smoothing_operator(
+    n_vertices: int, faces: NDArray[np.int64]
+) -> tuple[sp.csr_matrix, NDArray[np.bool_]]:
+    """Row-stochastic neighbour-mean matrix M and the mask of vertices that have neighbours.
+
+    One step of uniform Laplacian smoothing is ``v += lam * (M @ v - v)`` on those vertices
+    (:func:`meshwm.attacks.laplacian`); the robust decoder undoes it (:mod:`meshwm.robust`).
+
+    An interior vertex averages all its edge neighbours.  A boundary vertex (one on an edge of
+    a single face) averages only its neighbours along the boundary, so a border is smoothed as
+    a polyline of its own and does not shrink into the surface (MeshLab's "1D boundary
+    smoothing", the default of its Laplacian filter).
+    """
+    edges, inverse = unique_edges(faces)
+    edges_used = edges[:, 0] != edges[:, 1]
+    border = np.bincount(inverse, minlength=len(edges)) == 1
+    edges, border = edges[edges_used], border[edges_used]
+    on_border = np.zeros(n_vertices, dtype=bool)
+    on_border[edges[border].ravel()] = True
+    rows = np.concatenate([edges[:, 0], edges[:, 1]])
+    cols = np.concatenate([edges[:, 1], edges[:, 0]])
+    keep = ~on_border[rows] | np.concatenate([border, border])
+    w = sp.csr_matrix(
+        (np.ones(int(keep.sum())), (rows[keep], cols[keep])), shape=(n_vertices, n_vertices)
+    )
+    degree = np.asarray(w.sum(axis=1)).ravel()
+    inv = np.divide(1.0, degree, out=np.zeros(n_vertices), where=degree > 0)
+    return (sp.diags(inv) @ w).tocsr(), degree > 0

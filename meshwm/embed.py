@@ -64,9 +64,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ._validate import MeshError, check_mesh
-from .clean import clean_mesh, largest_component
+from .clean import clean_mesh
 from .fuzzy import EMBEDDING_CLASSES, strength_class
-from .geometry_image import geometry_image_to_mesh, mesh_to_geometry_image
+from .geometry_image import GeometryImage, geometry_image_to_mesh, mesh_to_geometry_image
 from .grid import GridError, recover_grid
 from .keying import keyed_permutation, keyed_uniform
 from .mark import _check_bits as check_mark_bits
@@ -81,6 +81,7 @@ from .metrics import (
     surface_distance,
 )
 from .params import CHANNELS, WatermarkParams
+from .robust import embed_gim_robust, extract_mesh_robust, fill_missing
 from .scramble import arnold_scramble, arnold_unscramble
 from .wavelet import mrr_decompose, mrr_reconstruct
 
@@ -287,6 +288,14 @@ def _slots(
     return _Slots(coeffs, frame, weight, canon, layout, use, channel, values)
 
 
+def _paper(params: WatermarkParams | None) -> WatermarkParams:
+    """``params`` for the paper's scheme: its profile, and its default step if none is set."""
+    params = params or WatermarkParams(profile="paper")
+    if params.profile != "paper":
+        params = dataclasses.replace(params, profile="paper")
+    return params
+
+
 def _check_gim(gim: NDArray, params: WatermarkParams) -> NDArray[np.float64]:
     gim = np.asarray(gim, dtype=np.float64)
     if gim.ndim != 3 or gim.shape != (params.size, params.size, 3):
@@ -348,7 +357,7 @@ def embed_gim(
     >>> extract_gim(marked, 16, key="k", params=p).bits.tolist() == bits.tolist()
     True
     """
-    params = params or WatermarkParams()
+    params = _paper(params)
     gim = _check_gim(gim, params)
     bits = _check_bits(bits)
     coeffs, frame, weight, canon, layout, use, ch, c = _slots(gim, params, key, len(bits))
@@ -414,7 +423,7 @@ def extract_gim(
         ``mark`` is the bits as a square image when ``n_bits`` is a square (unscrambled with
         ``params.arnold_iterations``), else a single row.
     """
-    params = params or WatermarkParams()
+    params = _paper(params)
     gim = _check_gim(gim, params)
     if isinstance(n_bits, bool) or not isinstance(n_bits, (int, np.integer)) or n_bits < 1:
         raise ValueError(f"n_bits must be a positive integer, got {n_bits!r}")
@@ -456,6 +465,7 @@ def embed(
     params: WatermarkParams | None = None,
     max_faces: int = 5_000_000,
     distances: bool = True,
+    geometry_image: GeometryImage | None = None,
 ) -> Embedded:
     """Watermark a triangle mesh: remesh to a geometry image, embed the mark, write back.
 
@@ -476,6 +486,10 @@ def embed(
         Refuse larger inputs.
     distances : bool, optional
         Measure the surface distances (MeshLab, about a second at N = 256).
+    geometry_image : GeometryImage, optional
+        ``mesh_to_geometry_image(vertices, faces, size=params.size)`` computed earlier (the
+        remesh is most of an embedding's time; a benchmark that marks one mesh at many
+        strengths passes it in).  Not checked against ``vertices`` beyond its size.
 
     Returns
     -------
@@ -494,7 +508,14 @@ def embed(
     t0 = time.perf_counter()
     params = params or WatermarkParams()
     mark = _check_mark(mark)
-    g = mesh_to_geometry_image(vertices, faces, size=params.size, max_faces=max_faces)
+    if geometry_image is None:
+        g = mesh_to_geometry_image(vertices, faces, size=params.size, max_faces=max_faces)
+    elif geometry_image.gim.shape != (params.size, params.size, 3):
+        raise ValueError(
+            f"geometry_image is {geometry_image.gim.shape[0]}-square, params.size is {params.size}"
+        )
+    else:
+        g = geometry_image
     out_v, out_f = geometry_image_to_mesh(
         g.gim, g.weld, other_vertices=g.other_vertices, other_faces=g.other_faces
     )
@@ -508,12 +529,16 @@ def embed(
         raise MeshError(f"internal error: the geometry image does not read back ({exc})") from exc
     bits = arnold_scramble(mark, iterations=params.arnold_iterations).ravel()
     try:
-        marked = embed_gim(cover.gim, bits, key=key, params=params)
+        if params.profile == "robust":
+            res = embed_gim_robust(cover.gim, bits, key=key, params=params)
+            marked = Embedded(res.gim, None, res.report)
+        else:
+            marked = embed_gim(cover.gim, bits, key=key, params=params)
     except ValueError as exc:
         raise MeshError(str(exc)) from exc
     unmarked_v = grid_v.copy()
     out_v[cover.index.ravel()] = marked.vertices.reshape(-1, 3)
-    report: dict[str, Any] = {"n": params.size, **marked.report}
+    report: dict[str, Any] = {"n": params.size, "profile": params.profile, **marked.report}
     # STL stores float32 and re-welds by position: distinct vertices must stay distinct.
     as32 = out_v[:n_grid_v].astype(np.float32)
     report["float32_distinct"] = bool(len(np.unique(as32, axis=0)) == n_grid_v)
@@ -533,22 +558,24 @@ def embed(
 
 
 def _read_grid(vertices: NDArray, faces: NDArray, max_faces: int):
-    """The grid of a received mesh: from its connectivity as given, else after cleaning.
+    """The grid of a received mesh, and the (vertices, faces) it indexes.
 
-    As given first: quantised coordinates can make distinct vertices coincide, and merging
-    them would change the connectivity.  Cleaned second: an STL file has no indices, and only
-    merging coincident vertices rebuilds the connectivity.
+    Components that hold no grid (passed-through parts of the input) are ignored by
+    :func:`meshwm.grid.recover_grid`.  Connectivity as given first: quantised coordinates can
+    make distinct vertices coincide, and merging them would change the connectivity.  Cleaned
+    second: an STL file has no indices, and only merging coincident vertices rebuilds it.
     """
     v, f = check_mesh(vertices, faces, max_faces=max_faces)
     try:
-        return recover_grid(*largest_component(v, f))
+        # Every component: a cropped grid can fall apart into pieces, each read on its own.
+        return recover_grid(v, f), v, f
     except GridError as as_given:
         try:
             clean = clean_mesh(v, f, max_faces=max_faces)
         except MeshError:
             # Not even a clean manifold: certainly no grid of ours (absent, not an error).
             raise as_given from None
-        return recover_grid(clean.vertices, clean.faces)
+        return recover_grid(clean.vertices, clean.faces), clean.vertices, clean.faces
 
 
 def extract(
@@ -596,12 +623,32 @@ def extract(
     """
     t0 = time.perf_counter()
     params = params or WatermarkParams()
-    grid = _read_grid(vertices, faces, max_faces)
+    grid, grid_v, grid_f = _read_grid(vertices, faces, max_faces)
     if grid.n != params.size:
         params = dataclasses.replace(params, size=grid.n)
     n_bits = int(mark_size) ** 2
-    found = extract_gim(grid.gim, n_bits, key=key, params=params)
-    report = {**found.report, "hypotheses": grid.hypotheses, "mark_size": int(mark_size)}
+    if params.profile == "robust":
+        res = extract_mesh_robust(grid_v, grid_f, grid.index, n_bits, key=key, params=params)
+        side = round(np.sqrt(n_bits))
+        if side * side == n_bits:
+            mark = arnold_unscramble(
+                res.bits.reshape(side, side), iterations=params.arnold_iterations
+            )
+        else:
+            mark = res.bits.reshape(1, -1)
+        found = Extracted(mark.astype(np.uint8), res.bits, res.confidence, res.report)
+        tried = grid.hypotheses * res.report["hypotheses"]
+    else:
+        gim, _ = fill_missing(grid.gim)
+        found = extract_gim(gim, n_bits, key=key, params=params)
+        tried = grid.hypotheses
+    report = {
+        "n": grid.n,
+        "profile": params.profile,
+        **found.report,
+        "hypotheses": tried,
+        "mark_size": int(mark_size),
+    }
     if expected is not None:
         exp = _check_mark(expected)
         if exp.shape != found.mark.shape:

@@ -19,6 +19,7 @@ __all__ = [
     "bounding_box_diagonal",
     "correlation2",
     "detection_p_value",
+    "is_detected",
     "psnr",
     "surface_distance",
 ]
@@ -188,3 +189,22 @@ def detection_p_value(agreeing: int, total: int) -> float:
     if not 0 <= agreeing <= total or total < 1:
         raise ValueError(f"need 0 <= agreeing <= total and total >= 1, got {agreeing}, {total}")
     return float(binom.sf(agreeing - 1, total, 0.5))
+
+
+def is_detected(p_value: float, *, fpr: float = 1e-6, hypotheses: int = 1) -> bool:
+    """The verify decision: present when ``p_value < fpr / hypotheses`` (Bonferroni).
+
+    Extraction may try several hypotheses (grid orientations, offsets, sizes, gains) and keep
+    the best; dividing the false-positive budget by their number keeps the overall chance of a
+    false "present" on an unmarked mesh below ``fpr``.
+
+    Examples
+    --------
+    >>> is_detected(1e-9, fpr=1e-6), is_detected(1e-9, fpr=1e-6, hypotheses=10_000)
+    (True, False)
+    """
+    if not 0.0 < fpr < 1.0:
+        raise ValueError(f"fpr must lie in (0, 1), got {fpr}")
+    if hypotheses < 1:
+        raise ValueError(f"hypotheses must be >= 1, got {hypotheses}")
+    return bool(p_value < fpr / hypotheses)

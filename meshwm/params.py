@@ -12,10 +12,18 @@ from typing import Any
 
 from .wavelet import MRR_LEVEL3_KEYS
 
-__all__ = ["CHANNELS", "WatermarkParams"]
+__all__ = ["CHANNELS", "DEFAULT_STEP", "PROFILES", "WatermarkParams"]
 
 #: Canonical-frame axes that can carry bits (see :mod:`meshwm.embed`).
 CHANNELS = ("x", "y", "z")
+
+#: The embedding schemes: ``"paper"`` is the paper's scheme made exact (section 3);
+#: ``"robust"`` is meshwm's default for real pipelines (see docs/robust.md).
+PROFILES = ("paper", "robust")
+
+#: Default quantisation step of each profile (see :attr:`WatermarkParams.step`); ``None``:
+#: calibrated per mesh to :attr:`WatermarkParams.distortion`.
+DEFAULT_STEP: dict[str, float | None] = {"paper": 0.006, "robust": None}
 
 
 @dataclass(frozen=True)
@@ -24,6 +32,10 @@ class WatermarkParams:
 
     Attributes
     ----------
+    profile : str
+        ``"paper"`` (the paper's scheme, faithful, for the side-by-side benchmark) or
+        ``"robust"`` (meshwm's scheme for real pipelines, :mod:`meshwm.robust`).  Default
+        ``"robust"``.
     size : int
         Geometry-image size N (a power of two, 64..2048).  Default 256.
     arnold_iterations : int
@@ -34,10 +46,17 @@ class WatermarkParams:
     bands : tuple of str
         MRR level-3 matrices that carry bits (keys of :func:`meshwm.wavelet.mrr_decompose`).
         Default: all 16 level-3 matrices of the paper's tree.
-    step : float
-        Quantisation step of the remainder rule, relative to the model's RMS radius (so a
-        scaled copy marks identically).  Default 0.006: the mark's own distortion then stays
-        under MRMS 0.02 % of the bounding-box diagonal on every development mesh.
+    step : float, optional
+        Quantisation step.  ``"paper"``: of the remainder rule, relative to the model's RMS
+        radius (so a scaled copy marks identically); ``None`` (the default) means 0.006, which
+        keeps the mark's own distortion under MRMS 0.02 % of the bounding-box diagonal on every
+        development mesh.  ``"robust"``: the tangential step relative to the local sample
+        spacing; ``None`` (the default) calibrates it per mesh so that the mark's distortion is
+        ``distortion`` (extraction never needs it: the decoder searches the gain).
+    distortion : float
+        ``"robust"`` with ``step=None``: the target RMS normal displacement of the mark,
+        relative to the bounding-box diagonal of the geometry image.  Default 1.85e-4, which
+        keeps MRMS under 0.02 % on every development mesh (docs/robust.md).
     remainder_one, remainder_zero : float
         The paper's i and j (i > j), as fractions of the step: a coefficient carries 1 when
         its dithered remainder is set to ``remainder_one`` and 0 when set to
@@ -54,16 +73,22 @@ class WatermarkParams:
     True
     """
 
+    profile: str = "robust"
     size: int = 256
     arnold_iterations: int = 5
     channels: tuple[str, ...] = ("x", "y")
     bands: tuple[str, ...] = MRR_LEVEL3_KEYS
-    step: float = 0.006
+    step: float | None = None
+    distortion: float = 1.85e-4
     remainder_one: float = 0.75
     remainder_zero: float = 0.25
     min_carriers: int = 3
 
     def __post_init__(self) -> None:
+        if self.profile not in PROFILES:
+            raise ValueError(f"unknown profile {self.profile!r}; valid: {', '.join(PROFILES)}")
+        if self.step is None:
+            object.__setattr__(self, "step", DEFAULT_STEP[self.profile])
         _integer(self.size, "size")
         if self.size < 64 or self.size > 2048 or self.size & (self.size - 1):
             raise ValueError(f"size must be a power of two in 64..2048, got {self.size}")
@@ -74,13 +99,17 @@ class WatermarkParams:
             )
         object.__setattr__(self, "channels", _names(self.channels, CHANNELS, "channels"))
         object.__setattr__(self, "bands", _names(self.bands, MRR_LEVEL3_KEYS, "bands"))
-        for name in ("step", "remainder_one", "remainder_zero"):
+        for name in ("step", "distortion", "remainder_one", "remainder_zero"):
             value = getattr(self, name)
+            if value is None and name == "step":
+                continue
             if isinstance(value, bool) or not isinstance(value, (int, float)):
                 raise TypeError(f"{name} must be a number, got {type(value).__name__}")
             object.__setattr__(self, name, float(value))
-        if not 1e-6 <= self.step <= 1.0:
+        if self.step is not None and not 1e-6 <= self.step <= 1.0:
             raise ValueError(f"step must lie in [1e-6, 1], got {self.step}")
+        if not 1e-7 <= self.distortion <= 1e-2:
+            raise ValueError(f"distortion must lie in [1e-7, 1e-2], got {self.distortion}")
         if not 0.0 <= self.remainder_zero < self.remainder_one < 1.0:
             raise ValueError(
                 "need 0 <= remainder_zero < remainder_one < 1 (the paper's j < i), got "

@@ -24,7 +24,7 @@ SPOT = ASSETS / "spot.ply"
 LOGO = ASSETS / "mark32.png"
 KEY = "cli-test-key"
 #: Options every embedding in this module uses (distances are measured in one test only).
-EMBED_OPTIONS = ["--key", KEY, "--size", "64", "--no-distance"]
+EMBED_OPTIONS = ["--key", KEY, "--size", "128", "--no-distance"]
 
 #: A few files from tests/_malformed.py that read_mesh must refuse, one per failure family.
 MALFORMED_IDS = (
@@ -154,11 +154,11 @@ def test_extract_returns_a_custom_mark(files, tmp_path, capsys):
 
 
 def test_extract_finds_n_from_the_mesh(files, tmp_path, capsys):
-    """Embedded at --size 64; extract has no --size and must not assume the default 256."""
+    """Embedded at --size 128; extract has no --size and must not assume the default 256."""
     out = tmp_path / "found.png"
     assert main(["extract", str(files["marked.ply"]), "--key", KEY, "-o", str(out), "--json"]) == 0
     report = _json(capsys)
-    assert report["n"] == 64
+    assert report["n"] == 128
     assert "ber" not in report  # no --mark, nothing to compare with
     np.testing.assert_array_equal(load_mark(out), default_mark(32))
 
@@ -183,14 +183,14 @@ def test_marked_obj_and_stl_read_back_exactly(suffix, files, tmp_path, capsys):
 
 def test_embed_json_report_with_distances(tmp_path, capsys):
     out = tmp_path / "marked.ply"
-    code = main(["embed", str(SPOT), "-o", str(out), "--key", KEY, "--size", "64", "--json"])
+    code = main(["embed", str(SPOT), "-o", str(out), "--key", KEY, "--size", "128", "--json"])
     assert code == 0
     report = _json(capsys)
     for name in ("psnr", "mrms_rel", "hausdorff_rel", "rms_rel", "seconds"):
         assert isinstance(report[name], float), name
     for name in ("n", "capacity_bits", "used_bits"):
         assert isinstance(report[name], int) and not isinstance(report[name], bool), name
-    assert report["n"] == 64
+    assert report["n"] == 128
     assert report["used_bits"] == 1024
     assert report["capacity_bits"] > 0
     assert report["psnr"] > 40
@@ -205,7 +205,7 @@ def test_embed_text_report_without_distances(tmp_path, capsys):
     out = tmp_path / "marked.ply"
     assert main(["embed", str(SPOT), "-o", str(out), *EMBED_OPTIONS]) == 0
     text = capsys.readouterr().out
-    assert "PSNR" in text and "1024 bits" in text and "N=64" in text
+    assert "PSNR" in text and "1024 bits" in text and "N=128" in text
     assert "Hausdorff" not in text  # --no-distance
 
 
@@ -230,8 +230,11 @@ def test_verify_present_with_the_right_key_and_mark(files, capsys):
     assert report["ber"] == 0
     assert report["correlation"] == 1
     assert report["bits"] == 1024
-    assert report["p_value"] < 1e-6
-    assert report["threshold"] == 1e-6
+    assert report["fpr"] == 1e-6
+    # Bonferroni: the false-positive budget is shared by every hypothesis the decoder tried.
+    assert report["hypotheses"] >= 1
+    assert report["threshold"] == pytest.approx(1e-6 / report["hypotheses"], rel=1e-5)
+    assert report["p_value"] < report["threshold"]
 
 
 def test_verify_present_text(files, capsys):
@@ -284,7 +287,8 @@ def test_verify_json_reports_a_small_threshold_unrounded(files, capsys):
     argv = ["verify", str(files["marked.ply"]), "--key", KEY, "--mark", str(LOGO)]
     assert main([*argv, "--fpr", "1e-9", "--json"]) == 0
     report = _json(capsys)
-    assert report["threshold"] == 1e-9
+    assert report["fpr"] == 1e-9
+    assert report["threshold"] == pytest.approx(1e-9 / report["hypotheses"], rel=1e-5)
 
 
 def test_verify_missing_file_is_an_error(tmp_path, capsys):
@@ -431,7 +435,7 @@ def test_embed_refuses_an_unwritable_suffix(suffix, tmp_path, capsys):
 
 
 def test_embed_mark_too_large_for_the_grid_exits_2(tmp_path, capsys):
-    """A 64×64 mark is 4096 bits; a size-64 geometry image has room for 1152."""
+    """A 64×64 mark is 4096 bits; a size-128 geometry image has 1764 robust slots."""
     out = tmp_path / "out.ply"
     assert main(_argv("embed", SPOT, out, ["--mark-size", "64"])) == 2
     assert "do not fit" in _one_line_error(capsys)

@@ -20,10 +20,27 @@ def test_defaults_are_valid_and_documented():
     assert p.channels == ("x", "y")
     assert p.bands == MRR_LEVEL3_KEYS and len(p.bands) == 16
     assert 0 <= p.remainder_zero < p.remainder_one < 1
-    assert p.step > 0
+    assert p.profile == "robust"
+    assert p.step is None  # robust: calibrated per mesh to p.distortion
+    assert 0 < p.distortion < 2e-4  # under the MRMS budget of 0.02 %
+    assert WatermarkParams(profile="paper").step == 0.006
     assert p.min_carriers >= 1
     # Re-validating the defaults changes nothing.
     assert WatermarkParams(**dataclasses.asdict(p)) == p
+
+
+@pytest.mark.parametrize(
+    "kw, match",
+    [
+        ({"profile": "fast"}, "unknown profile"),
+        ({"distortion": 0.0}, "distortion must lie"),
+        ({"distortion": 0.5}, "distortion must lie"),
+        ({"distortion": "high"}, "distortion must be a number"),
+    ],
+)
+def test_profile_and_distortion_are_validated(kw, match):
+    with pytest.raises((ValueError, TypeError), match=match):
+        WatermarkParams(**kw)
 
 
 def test_dict_round_trip_through_json():
