@@ -19,13 +19,15 @@ from pathlib import Path
 from meshwm import __version__
 from meshwm._validate import DEFAULT_MAX_FACES, check_square_pow2
 from meshwm.attacks import ATTACK_PARAMS, ATTACKS, apply_attack
-from meshwm.embed import embed, extract
+from meshwm.batch import Check, expand_paths, progress_bar, run_dask, run_local, summarise
+from meshwm.embed import embed, extract, extract_id
 from meshwm.geometry_image import geometry_image_to_mesh, mesh_to_geometry_image
 from meshwm.grid import GridError
 from meshwm.io import READ_SUFFIXES, WRITE_SUFFIXES, check_output, read_mesh, write_mesh
 from meshwm.mark import MARK_SIZE_RANGE, default_mark, load_mark, save_mark
 from meshwm.metrics import is_detected, surface_distance
 from meshwm.params import CHANNELS, DEFAULT_STEP, PROFILES, WatermarkParams
+from meshwm.payload import parse_id
 
 __all__ = ["main"]
 
@@ -92,6 +94,13 @@ def _probability(text: str) -> float:
     if not 0 < value < 1:
         raise argparse.ArgumentTypeError(f"expected a probability in (0, 1), got {text}")
     return value
+
+
+def _ident(text: str) -> bytes:
+    try:
+        return parse_id(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
 
 
 def _real(text: str) -> float:
@@ -222,6 +231,14 @@ def _build_parser() -> argparse.ArgumentParser:
     emb.add_argument("-o", "--output", type=Path, required=True, help="output mesh file")
     emb.add_argument("--mark", type=Path, help="mark image (PNG, BMP, ...), thresholded")
     emb.add_argument(
+        "--id",
+        type=_ident,
+        dest="ident",
+        metavar="TEXT|HEX",
+        help="embed a 64-bit id instead of a mark: up to 16 hex digits or 8 bytes of text "
+        "(CRC-32 and Reed-Solomon protected)",
+    )
+    emb.add_argument(
         "--mark-size", type=_mark_size, default=32, help="resample the mark to this side (32)"
     )
     _add_watermark_options(emb, size=True)
@@ -240,7 +257,7 @@ def _build_parser() -> argparse.ArgumentParser:
         description="Find the grid in the mesh, read the mark and write it as a PNG.",
     )
     ext.add_argument("input", type=Path, help="received mesh file")
-    ext.add_argument("-o", "--output", type=Path, required=True, help="mark image to write (.png)")
+    ext.add_argument("-o", "--output", type=Path, help="mark image to write (.png)")
     ext.add_argument(
         "--mark-size", type=_mark_size, default=32, help="side of the square mark (32)"
     )
@@ -258,8 +275,15 @@ def _build_parser() -> argparse.ArgumentParser:
             "tried (binomial test, fair-coin null, Bonferroni)."
         ),
     )
-    ver.add_argument("input", type=Path, help="mesh file to check")
-    ver.add_argument("--mark", type=Path, required=True, help="the expected mark image")
+    ver.add_argument(
+        "input", type=Path, nargs="+", help="mesh files, folders (searched recursively) or globs"
+    )
+    what = ver.add_mutually_exclusive_group(required=True)
+    what.add_argument("--mark", type=Path, help="the expected mark image")
+    what.add_argument("--id", type=_ident, dest="ident", metavar="TEXT|HEX", help="the expected id")
+    what.add_argument(
+        "--any-id", action="store_true", help="present when any valid id decodes (reports it)"
+    )
     ver.add_argument(
         "--mark-size", type=_mark_size, default=32, help="side of the square mark (32)"
     )
@@ -268,6 +292,17 @@ def _build_parser() -> argparse.ArgumentParser:
         type=_probability,
         default=1e-6,
         help="false-positive probability allowed, over all hypotheses tried (1e-6)",
+    )
+    ver.add_argument(
+        "--jobs", type=_positive_int, default=1, help="files checked in parallel processes (1)"
+    )
+    ver.add_argument(
+        "--scheduler",
+        metavar="ADDRESS",
+        help="run on a Dask cluster (tcp://host:8786); needs pip install 'meshwm[dask]'",
+    )
+    ver.add_argument(
+        "--jsonl", action="store_true", help="one JSON line per file, then a summary line"
     )
     _add_watermark_options(ver, size=False)
     ver.add_argument("--json", action="store_true", help="print the result as JSON")
@@ -334,7 +369,14 @@ def _round(report: dict) -> dict:
 def _run_embed(args: argparse.Namespace) -> int:
     check_output(args.output, overwrite_input=args.input, force=args.force)
     params = _params(args)
-    mark = load_mark(args.mark, size=args.mark_size) if args.mark else default_mark(args.mark_size)
+    if args.ident is not None and args.mark:
+        raise ValueError("--id and --mark exclude each other: embed a mark or an id")
+    if args.ident is not None:
+        mark = None
+    else:
+        mark = (
+            load_mark(args.mark, size=args.mark_size) if args.mark else default_mark(args.mark_size)
+        )
     vertices, faces = read_mesh(args.input, max_faces=args.max_faces)
     result = embed(
         vertices,
@@ -344,6 +386,7 @@ def _run_embed(args: argparse.Namespace) -> int:
         params=params,
         max_faces=args.max_faces,
         distances=not args.no_distance,
+        ident=args.ident,
     )
     write_mesh(
         args.output, result.vertices, result.faces, overwrite_input=args.input, force=args.force
@@ -355,9 +398,14 @@ def _run_embed(args: argparse.Namespace) -> int:
     else:
         lines = [
             f"{report['input']} -> {report['output']}",
-            f"  mark : {report['mark_size']}×{report['mark_size']} = {report['used_bits']} bits "
-            f"on {report['carriers']} coefficients (capacity {report['capacity_bits']}), "
-            f"N={report['n']}",
+            (
+                f"  id   : {report['id']} ({report['used_bits']} code bits "
+                if "id" in report
+                else f"  mark : {report['mark_size']}×{report['mark_size']} = "
+                f"{report['used_bits']} bits "
+            )
+            + f"on {report['carriers']} coefficients (capacity {report['capacity_bits']}), "
+            f"N={report['n']}" + (")" if "id" in report else ""),
             f"  PSNR : {report['psnr']:.2f} dB",
         ]
         if report["used_bits"] > report["capacity_bits"]:
@@ -398,7 +446,10 @@ def _check_png(
 
 
 def _run_extract(args: argparse.Namespace) -> int:
-    _check_png(args.output, [args.input], what="mark")
+    if args.output is None and not args.json:
+        raise ValueError("give -o MARK.png to write the mark, or --json to print the report")
+    if args.output is not None:
+        _check_png(args.output, [args.input], what="mark")
     expected = load_mark(args.mark, size=args.mark_size) if args.mark else None
     vertices, faces = read_mesh(args.input, max_faces=args.max_faces)
     result = extract(
@@ -410,9 +461,16 @@ def _run_extract(args: argparse.Namespace) -> int:
         params=_params(args),
         max_faces=args.max_faces,
     )
-    save_mark(args.output, result.mark)
-    report = {"input": str(args.input), "output": str(args.output), **result.report}
+    report = {"input": str(args.input), "output": None, **result.report}
+    if args.output is not None:
+        save_mark(args.output, result.mark)
+        report["output"] = str(args.output)
     if args.json:
+        # The id payload, if the mesh carries one (None otherwise: the CRC decides).
+        found = extract_id(
+            vertices, faces, key=args.key, params=_params(args), max_faces=args.max_faces
+        )
+        report["id"] = found.id
         print(json.dumps(_round(report), indent=2, sort_keys=True))
     else:
         line = f"{args.input}: {args.mark_size}×{args.mark_size} mark -> {args.output}"
@@ -423,6 +481,64 @@ def _run_extract(args: argparse.Namespace) -> int:
 
 
 def _run_verify(args: argparse.Namespace) -> int:
+    if len(args.input) == 1 and args.mark and not args.jsonl and not args.scheduler:
+        args.input = args.input[0]
+        return _verify_one(args)
+    return _verify_batch(args)
+
+
+def _verify_batch(args: argparse.Namespace) -> int:
+    """Many files (or an id): one row per file, a summary, exit 0 / 1 / 2 (see meshwm.batch)."""
+    check = Check(
+        key=args.key,
+        params=_params(args),
+        mark=load_mark(args.mark, size=args.mark_size) if args.mark else None,
+        ident=args.ident,
+        any_id=args.any_id,
+        fpr=args.fpr,
+        max_faces=args.max_faces,
+    )
+    paths = expand_paths(args.input)
+    if not paths:
+        raise ValueError("no mesh files found in the given paths")
+    show = None
+    if not args.jsonl and not args.json and sys.stderr.isatty():
+        show = progress_bar(len(paths), sys.stderr)
+    if args.scheduler:
+        rows_iter = run_dask(paths, check, scheduler=args.scheduler)
+    else:
+        rows_iter = run_local(paths, check, jobs=args.jobs)
+    rows = []
+    for row in rows_iter:
+        rows.append(row)
+        if args.jsonl:
+            print(json.dumps(_round(row), sort_keys=True), flush=True)
+        elif not args.json:
+            verdict = "error" if row["error"] else ("present" if row["detected"] else "absent")
+            extra = row["error"] or (f"id {row['id']}" if row["id"] else "")
+            if row["ber"] is not None:
+                extra = f"BER {row['ber']:.4f}, p-value {row['p_value']:.3g}" + (
+                    f", {extra}" if extra else ""
+                )
+            print(f"{row['path']}: {verdict}" + (f" ({extra})" if extra else ""), flush=True)
+        if show:
+            show(len(rows))
+    summary = summarise(rows)
+    if args.jsonl:
+        print(json.dumps({"summary": _round(summary)}, sort_keys=True))
+    elif args.json:
+        print(
+            json.dumps({"files": [_round(r) for r in rows], "summary": _round(summary)}, indent=2)
+        )
+    else:
+        print(
+            f"{summary['files']} files: {summary['present']} present, {summary['absent']} "
+            f"absent, {summary['errors']} unreadable"
+        )
+    return int(summary["exit_code"])
+
+
+def _verify_one(args: argparse.Namespace) -> int:
     expected = load_mark(args.mark, size=args.mark_size)
     vertices, faces = read_mesh(args.input, max_faces=args.max_faces)
     report: dict = {"input": str(args.input), "fpr": args.fpr, "threshold": args.fpr}

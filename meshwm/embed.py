@@ -81,6 +81,7 @@ from .metrics import (
     surface_distance,
 )
 from .params import CHANNELS, WatermarkParams
+from .payload import PAYLOAD_BITS, decode_id, encode_id
 from .robust import embed_gim_robust, extract_mesh_robust, fill_missing
 from .scramble import arnold_scramble, arnold_unscramble
 from .wavelet import mrr_decompose, mrr_reconstruct
@@ -88,12 +89,14 @@ from .wavelet import mrr_decompose, mrr_reconstruct
 __all__ = [
     "Embedded",
     "Extracted",
+    "ExtractedId",
     "Frame",
     "canonical_frame",
     "embed",
     "embed_gim",
     "extract",
     "extract_gim",
+    "extract_id",
 ]
 
 #: Level-3 coefficients cover 8×8 samples, 4×4 samples of CA.
@@ -466,6 +469,7 @@ def embed(
     max_faces: int = 5_000_000,
     distances: bool = True,
     geometry_image: GeometryImage | None = None,
+    ident: bytes | None = None,
 ) -> Embedded:
     """Watermark a triangle mesh: remesh to a geometry image, embed the mark, write back.
 
@@ -486,6 +490,10 @@ def embed(
         Refuse larger inputs.
     distances : bool, optional
         Measure the surface distances (MeshLab, about a second at N = 256).
+    ident : bytes, optional
+        Embed this 8-byte identifier (:mod:`meshwm.payload`: CRC-32 and Reed-Solomon, 256
+        code bits) instead of a mark; ``mark`` must then be None.  Read back with
+        :func:`extract_id`.
     geometry_image : GeometryImage, optional
         ``mesh_to_geometry_image(vertices, faces, size=params.size)`` computed earlier (the
         remesh is most of an embedding's time; a benchmark that marks one mesh at many
@@ -507,6 +515,8 @@ def embed(
     """
     t0 = time.perf_counter()
     params = params or WatermarkParams()
+    if ident is not None and mark is not None:
+        raise ValueError("embed either a mark or an id, not both")
     mark = _check_mark(mark)
     if geometry_image is None:
         g = mesh_to_geometry_image(vertices, faces, size=params.size, max_faces=max_faces)
@@ -527,7 +537,10 @@ def embed(
         cover = recover_grid(grid_v, grid_f)
     except GridError as exc:  # pragma: no cover - a remesher bug, not bad input
         raise MeshError(f"internal error: the geometry image does not read back ({exc})") from exc
-    bits = arnold_scramble(mark, iterations=params.arnold_iterations).ravel()
+    if ident is not None:
+        bits = encode_id(ident)
+    else:
+        bits = arnold_scramble(mark, iterations=params.arnold_iterations).ravel()
     try:
         if params.profile == "robust":
             res = embed_gim_robust(cover.gim, bits, key=key, params=params)
@@ -552,7 +565,10 @@ def embed(
         report["rms_rel"] = d_all.rms / d_all.diagonal
     report["vertices"] = len(out_v)
     report["faces"] = len(out_f)
-    report["mark_size"] = int(mark.shape[0])
+    if ident is not None:
+        report["id"] = bytes(ident).hex()
+    else:
+        report["mark_size"] = int(mark.shape[0])
     report["seconds"] = time.perf_counter() - t0
     return Embedded(out_v, out_f, report)
 
@@ -576,6 +592,66 @@ def _read_grid(vertices: NDArray, faces: NDArray, max_faces: int):
             # Not even a clean manifold: certainly no grid of ours (absent, not an error).
             raise as_given from None
         return recover_grid(clean.vertices, clean.faces), clean.vertices, clean.faces
+
+
+def _decode(grid, grid_v, grid_f, n_bits: int, key: str | bytes, params: WatermarkParams):
+    """Bits, confidence, report (with ``hypotheses``) and the params used, from a read grid."""
+    if grid.n != params.size:
+        params = dataclasses.replace(params, size=grid.n)
+    if params.profile == "robust":
+        res = extract_mesh_robust(grid_v, grid_f, grid.index, n_bits, key=key, params=params)
+        report = {**res.report, "hypotheses": grid.hypotheses * res.report["hypotheses"]}
+        return res.bits, res.confidence, report, params
+    gim, _ = fill_missing(grid.gim)
+    found = extract_gim(gim, n_bits, key=key, params=params)
+    report = {**found.report, "hypotheses": grid.hypotheses}
+    # The paper's soft vote is in [-1, 1] per carrier, positive for 1: same sign convention.
+    return found.bits, found.confidence, report, params
+
+
+class ExtractedId(NamedTuple):
+    """Output of :func:`extract_id`: ``id`` is 16 hex digits, or None if none decodes."""
+
+    id: str | None
+    bits: NDArray[np.uint8]
+    confidence: NDArray[np.float64]
+    report: dict[str, Any]
+
+
+def extract_id(
+    vertices: NDArray,
+    faces: NDArray,
+    *,
+    key: str | bytes,
+    expected: bytes | None = None,
+    params: WatermarkParams | None = None,
+    max_faces: int = 5_000_000,
+) -> ExtractedId:
+    """Blind extraction of an id embedded with ``embed(..., ident=...)``.
+
+    The 256 code bits are decoded (Reed-Solomon with erasures from the per-bit confidence,
+    then CRC-32, :func:`meshwm.payload.decode_id`); an id is reported only when its CRC
+    matches, so a corrupted id is ``None``, never a wrong one.  With ``expected``, the report
+    also has ``ber`` and ``p_value`` of the code bits against that id's code (binomial tail).
+
+    Raises
+    ------
+    meshwm.grid.GridError
+        No meshwm grid in the connectivity.
+    """
+    t0 = time.perf_counter()
+    params = params or WatermarkParams()
+    grid, grid_v, grid_f = _read_grid(vertices, faces, max_faces)
+    bits, confidence, found, params = _decode(grid, grid_v, grid_f, PAYLOAD_BITS, key, params)
+    ident = decode_id(bits, confidence)
+    report = {"n": grid.n, "profile": params.profile, **found, "id": ident, "bits": PAYLOAD_BITS}
+    if expected is not None:
+        code = encode_id(expected)
+        agree = int(np.sum(code == bits))
+        report["ber"] = bit_error_rate(code, bits)
+        report["p_value"] = detection_p_value(agree, PAYLOAD_BITS)
+    report["seconds"] = time.perf_counter() - t0
+    return ExtractedId(ident, bits, confidence, report)
 
 
 def extract(
@@ -624,24 +700,15 @@ def extract(
     t0 = time.perf_counter()
     params = params or WatermarkParams()
     grid, grid_v, grid_f = _read_grid(vertices, faces, max_faces)
-    if grid.n != params.size:
-        params = dataclasses.replace(params, size=grid.n)
     n_bits = int(mark_size) ** 2
-    if params.profile == "robust":
-        res = extract_mesh_robust(grid_v, grid_f, grid.index, n_bits, key=key, params=params)
-        side = round(np.sqrt(n_bits))
-        if side * side == n_bits:
-            mark = arnold_unscramble(
-                res.bits.reshape(side, side), iterations=params.arnold_iterations
-            )
-        else:
-            mark = res.bits.reshape(1, -1)
-        found = Extracted(mark.astype(np.uint8), res.bits, res.confidence, res.report)
-        tried = grid.hypotheses * res.report["hypotheses"]
+    bits, confidence, found_report, params = _decode(grid, grid_v, grid_f, n_bits, key, params)
+    side = round(np.sqrt(n_bits))
+    if side * side == n_bits:
+        mark = arnold_unscramble(bits.reshape(side, side), iterations=params.arnold_iterations)
     else:
-        gim, _ = fill_missing(grid.gim)
-        found = extract_gim(gim, n_bits, key=key, params=params)
-        tried = grid.hypotheses
+        mark = bits.reshape(1, -1)
+    found = Extracted(mark.astype(np.uint8), bits, confidence, found_report)
+    tried = found_report["hypotheses"]
     report = {
         "n": grid.n,
         "profile": params.profile,
