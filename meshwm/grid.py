@@ -186,6 +186,7 @@ class _Mesh:
         self.n_vertices, self.faces, self.vertices = n, faces, vertices
         self.lookup = _Lookup(n, faces)
         self._reversed: _Lookup | None = None
+        self._depth: NDArray[np.int64] | None = None
         self.valence = np.bincount(faces.ravel(), minlength=n)
         # A vertex is interior (closed fan) when every directed edge at it has its reverse;
         # only there is the face count the valence of the 4-8 grid.
@@ -218,9 +219,11 @@ class _Mesh:
         self.graph = graph
         self.n_components, self.label = connected_components(graph, connection="weak")
 
-    @functools.cache  # noqa: B019 - one mesh per recover_grid call
     def depth(self) -> NDArray[np.int64]:
-        return _clean_depth(self, _DEPTH + 1)
+        # Cached on the instance: a functools.cache on the method would keep every mesh alive.
+        if self._depth is None:
+            self._depth = _clean_depth(self, _DEPTH + 1)
+        return self._depth
 
     def lookup_for(self, reverse: bool) -> _Lookup:
         if not reverse:
