@@ -1189,12 +1189,15 @@ def recover_grid(vertices: NDArray, faces: NDArray, *, size: int | None = None) 
             f"{len(v)} vertices is more than the {used} the faces use: a meshwm grid (or a "
             "crop of one) has no free vertex"
         )
-    sizes = _candidate_sizes(len(f), len(v), size)
+    # Sizes from the largest piece: other components (passed through by meshwm) add faces.
+    mesh = _Mesh(v, f)
+    piece_faces = np.bincount(mesh.label[f[:, 0]], minlength=mesh.n_components).max()
+    piece_vertices = np.bincount(mesh.label, minlength=mesh.n_components).max()
+    sizes = _candidate_sizes(int(piece_faces), int(piece_vertices), size)
     if not sizes:
         raise GridError(f"{len(v)} vertices is more than an {_SEARCH_CAP} x {_SEARCH_CAP} grid has")
     n0 = sizes[0]
     codes = [_code(n) for n in sizes]
-    mesh = _Mesh(v, f)
     min_faces = 8 * min(c.min_bits for c in codes)
     face_label = mesh.label[f[:, 0]]
     comp_faces = np.bincount(face_label, minlength=mesh.n_components)

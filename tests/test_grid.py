@@ -537,3 +537,18 @@ def test_every_development_mesh_reads_back_at_256(path):
     differs = np.any(grid.gim != g.gim, axis=-1)
     assert np.all(_border(256)[differs])  # fold tips only
     assert_array_equal(np.unique(grid.index), np.arange(len(v)))
+
+
+def test_other_components_with_many_faces_do_not_hide_the_size():
+    """meshwm passes other components through; their faces must not push N up a size."""
+    n = 32
+    i, j = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
+    gim = np.stack([i, j, np.sin(i + j)], axis=-1).astype(float)
+    v, f = geometry_image_to_mesh(gim)
+    extra_v, extra_f = geometry_image_to_mesh(gim[:24, :24] + [100.0, 0.0, 0.0])
+    both_v = np.concatenate([v, extra_v])
+    both_f = np.concatenate([f, extra_f + len(v)])
+    assert len(both_f) > 2 * (n - 1) ** 2  # the face count alone would say N = 64
+    grid = recover_grid(both_v, both_f)
+    assert grid.n == n and grid.coverage == 1.0
+    assert np.array_equal(grid.gim, gim)
