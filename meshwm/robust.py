@@ -552,9 +552,11 @@ def extract_mesh_robust(
     v = np.asarray(vertices, dtype=np.float64)
     index = np.asarray(index)
 
+    def sampled(points: NDArray[np.float64]) -> NDArray[np.float64]:
+        return np.where((index >= 0)[..., None], points[np.maximum(index, 0)], np.nan)
+
     def read(points: NDArray[np.float64]) -> RobustResult:
-        gim = np.where((index >= 0)[..., None], points[np.maximum(index, 0)], np.nan)
-        return extract_gim_robust(gim, n_bits, key=key, params=params)
+        return extract_gim_robust(sampled(points), n_bits, key=key, params=params)
 
     def strength(res: RobustResult) -> float:
         return float(np.mean(np.abs(res.confidence)))
@@ -563,7 +565,7 @@ def extract_mesh_robust(
     tried = 1
     despiked = 0.0
     if strength(best) < UNSMOOTH_BELOW:
-        gim = np.where((index >= 0)[..., None], v[np.maximum(index, 0)], np.nan)
+        gim = sampled(v)
         spikes = find_spikes(gim)
         if spikes.any():
             tried += 1
