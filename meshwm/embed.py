@@ -82,7 +82,7 @@ from .metrics import (
 )
 from .params import CHANNELS, WatermarkParams
 from .payload import PAYLOAD_BITS, decode_id, encode_id
-from .robust import embed_gim_robust, extract_mesh_robust, fill_missing
+from .robust import ReceivedMesh, embed_gim_robust, fill_missing
 from .scramble import arnold_scramble, arnold_unscramble
 from .wavelet import mrr_decompose, mrr_reconstruct
 
@@ -91,6 +91,7 @@ __all__ = [
     "Extracted",
     "ExtractedId",
     "Frame",
+    "Reader",
     "canonical_frame",
     "embed",
     "embed_gim",
@@ -596,17 +597,138 @@ def _read_grid(vertices: NDArray, faces: NDArray, max_faces: int):
 
 def _decode(grid, grid_v, grid_f, n_bits: int, key: str | bytes, params: WatermarkParams):
     """Bits, confidence, report (with ``hypotheses``) and the params used, from a read grid."""
-    if grid.n != params.size:
-        params = dataclasses.replace(params, size=grid.n)
-    if params.profile == "robust":
-        res = extract_mesh_robust(grid_v, grid_f, grid.index, n_bits, key=key, params=params)
-        report = {**res.report, "hypotheses": grid.hypotheses * res.report["hypotheses"]}
-        return res.bits, res.confidence, report, params
-    gim, _ = fill_missing(grid.gim)
-    found = extract_gim(gim, n_bits, key=key, params=params)
-    report = {**found.report, "hypotheses": grid.hypotheses}
-    # The paper's soft vote is in [-1, 1] per carrier, positive for 1: same sign convention.
-    return found.bits, found.confidence, report, params
+    reader = Reader.__new__(Reader)
+    reader._setup(grid, grid_v, grid_f, params)
+    bits, confidence, report = reader.decode(n_bits, key=key)
+    return bits, confidence, report, reader.params
+
+
+class Reader:
+    """A received mesh, read once, to decode with one key or many.
+
+    Reading the grid from the connectivity (:func:`meshwm.grid.recover_grid`) and the
+    key-independent analysis (:class:`meshwm.robust.ReceivedMesh`) are done once; each
+    :meth:`extract` / :meth:`extract_id` then only runs the keyed decoder.  :func:`extract`
+    and :func:`extract_id` are ``Reader(...).extract(...)`` and ``Reader(...).extract_id(...)``.
+
+    Parameters
+    ----------
+    vertices, faces : array_like
+        The received mesh (any vertex and face order, any pose).
+    params : WatermarkParams, optional
+        As used for embedding (``size`` is ignored in favour of the N found).
+    max_faces : int, optional
+        Refuse larger inputs.
+
+    Raises
+    ------
+    MeshError
+        Unusable mesh arrays.
+    meshwm.grid.GridError
+        No meshwm grid in the connectivity (not marked by meshwm, or remeshed).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from meshwm.geometry_image import geometry_image_to_mesh
+    >>> n = 64
+    >>> i, j = np.meshgrid(np.linspace(0, 1, n), np.linspace(0, 1, n), indexing="ij")
+    >>> gim = np.stack([i, j, 0.1 * np.sin(6 * i) * np.cos(5 * j)], axis=-1)
+    >>> reader = Reader(*geometry_image_to_mesh(gim))
+    >>> reader.grid.n, reader.extract(key="any", mark_size=8).report["hypotheses"] > 1
+    (64, True)
+    """
+
+    def __init__(
+        self,
+        vertices: NDArray,
+        faces: NDArray,
+        *,
+        params: WatermarkParams | None = None,
+        max_faces: int = 5_000_000,
+    ) -> None:
+        grid, grid_v, grid_f = _read_grid(vertices, faces, max_faces)
+        self._setup(grid, grid_v, grid_f, params or WatermarkParams())
+
+    def _setup(self, grid: Any, grid_v: NDArray, grid_f: NDArray, params: WatermarkParams) -> None:
+        if grid.n != params.size:
+            params = dataclasses.replace(params, size=grid.n)
+        #: The grid read (:class:`meshwm.grid.RecoveredGrid`).
+        self.grid = grid
+        #: The parameters used (``size`` is the N found).
+        self.params = params
+        self._received: ReceivedMesh | None = None
+        self._gim: NDArray[np.float64] | None = None
+        if params.profile == "robust":
+            self._received = ReceivedMesh(grid_v, grid_f, grid.index, params=params)
+        else:
+            self._gim = fill_missing(grid.gim)[0]
+
+    def decode(
+        self, n_bits: int, *, key: str | bytes
+    ) -> tuple[NDArray[np.uint8], NDArray[np.float64], dict[str, Any]]:
+        """``n_bits`` raw bits, their confidence, and a report with ``hypotheses``."""
+        if self._received is not None:
+            res = self._received.decode(n_bits, key=key)
+            hypotheses = self.grid.hypotheses * res.report["hypotheses"]
+            return res.bits, res.confidence, {**res.report, "hypotheses": hypotheses}
+        found = extract_gim(self._gim, n_bits, key=key, params=self.params)
+        report = {**found.report, "hypotheses": self.grid.hypotheses}
+        # The paper's soft vote is in [-1, 1] per carrier, positive for 1: same sign convention.
+        return found.bits, found.confidence, report
+
+    def extract(
+        self, *, key: str | bytes, mark_size: int = 32, expected: NDArray | None = None
+    ) -> Extracted:
+        """The mark, as :func:`extract` describes."""
+        t0 = time.perf_counter()
+        params = self.params
+        n_bits = int(mark_size) ** 2
+        bits, confidence, found_report = self.decode(n_bits, key=key)
+        side = round(np.sqrt(n_bits))
+        if side * side == n_bits:
+            mark = arnold_unscramble(bits.reshape(side, side), iterations=params.arnold_iterations)
+        else:
+            mark = bits.reshape(1, -1)
+        mark = mark.astype(np.uint8)
+        report = {
+            "n": self.grid.n,
+            "profile": params.profile,
+            **found_report,
+            "mark_size": int(mark_size),
+        }
+        if expected is not None:
+            exp = _check_mark(expected)
+            if exp.shape != mark.shape:
+                raise ValueError(f"expected mark is {exp.shape}, extracted {mark.shape}")
+            exp_bits = arnold_scramble(exp, iterations=params.arnold_iterations).ravel()
+            agree = int(np.sum(exp_bits == bits))
+            report["bits"] = n_bits
+            report["ber"] = bit_error_rate(exp_bits, bits)
+            report["correlation"] = correlation2(exp, mark)
+            report["p_value"] = detection_p_value(agree, n_bits)
+        report["seconds"] = time.perf_counter() - t0
+        return Extracted(mark, bits, confidence, report)
+
+    def extract_id(self, *, key: str | bytes, expected: bytes | None = None) -> ExtractedId:
+        """The id, as :func:`extract_id` describes."""
+        t0 = time.perf_counter()
+        bits, confidence, found = self.decode(PAYLOAD_BITS, key=key)
+        ident = decode_id(bits, confidence)
+        report = {
+            "n": self.grid.n,
+            "profile": self.params.profile,
+            **found,
+            "id": ident,
+            "bits": PAYLOAD_BITS,
+        }
+        if expected is not None:
+            code = encode_id(expected)
+            agree = int(np.sum(code == bits))
+            report["ber"] = bit_error_rate(code, bits)
+            report["p_value"] = detection_p_value(agree, PAYLOAD_BITS)
+        report["seconds"] = time.perf_counter() - t0
+        return ExtractedId(ident, bits, confidence, report)
 
 
 class ExtractedId(NamedTuple):
@@ -640,18 +762,10 @@ def extract_id(
         No meshwm grid in the connectivity.
     """
     t0 = time.perf_counter()
-    params = params or WatermarkParams()
-    grid, grid_v, grid_f = _read_grid(vertices, faces, max_faces)
-    bits, confidence, found, params = _decode(grid, grid_v, grid_f, PAYLOAD_BITS, key, params)
-    ident = decode_id(bits, confidence)
-    report = {"n": grid.n, "profile": params.profile, **found, "id": ident, "bits": PAYLOAD_BITS}
-    if expected is not None:
-        code = encode_id(expected)
-        agree = int(np.sum(code == bits))
-        report["ber"] = bit_error_rate(code, bits)
-        report["p_value"] = detection_p_value(agree, PAYLOAD_BITS)
-    report["seconds"] = time.perf_counter() - t0
-    return ExtractedId(ident, bits, confidence, report)
+    reader = Reader(vertices, faces, params=params, max_faces=max_faces)
+    found = reader.extract_id(key=key, expected=expected)
+    found.report["seconds"] = time.perf_counter() - t0
+    return found
 
 
 def extract(
@@ -698,33 +812,7 @@ def extract(
         No meshwm grid in the connectivity (not marked by meshwm, or remeshed).
     """
     t0 = time.perf_counter()
-    params = params or WatermarkParams()
-    grid, grid_v, grid_f = _read_grid(vertices, faces, max_faces)
-    n_bits = int(mark_size) ** 2
-    bits, confidence, found_report, params = _decode(grid, grid_v, grid_f, n_bits, key, params)
-    side = round(np.sqrt(n_bits))
-    if side * side == n_bits:
-        mark = arnold_unscramble(bits.reshape(side, side), iterations=params.arnold_iterations)
-    else:
-        mark = bits.reshape(1, -1)
-    found = Extracted(mark.astype(np.uint8), bits, confidence, found_report)
-    tried = found_report["hypotheses"]
-    report = {
-        "n": grid.n,
-        "profile": params.profile,
-        **found.report,
-        "hypotheses": tried,
-        "mark_size": int(mark_size),
-    }
-    if expected is not None:
-        exp = _check_mark(expected)
-        if exp.shape != found.mark.shape:
-            raise ValueError(f"expected mark is {exp.shape}, extracted {found.mark.shape}")
-        exp_bits = arnold_scramble(exp, iterations=params.arnold_iterations).ravel()
-        agree = int(np.sum(exp_bits == found.bits))
-        report["bits"] = n_bits
-        report["ber"] = bit_error_rate(exp_bits, found.bits)
-        report["correlation"] = correlation2(exp, found.mark)
-        report["p_value"] = detection_p_value(agree, n_bits)
-    report["seconds"] = time.perf_counter() - t0
-    return Extracted(found.mark, found.bits, found.confidence, report)
+    reader = Reader(vertices, faces, params=params, max_faces=max_faces)
+    found = reader.extract(key=key, mark_size=mark_size, expected=expected)
+    found.report["seconds"] = time.perf_counter() - t0
+    return found

@@ -144,7 +144,8 @@ class _Lookup:
         keys = np.concatenate([a, b, c]) * n_vertices + np.concatenate([b, c, a])
         third = np.concatenate([c, a, b])
         face = np.tile(np.arange(len(faces)), 3)
-        order = np.argsort(keys)
+        # Stable: fast on the nearly sorted keys of a file as the embedder wrote it.
+        order = np.argsort(keys, kind="stable")
         self.keys, self.third, self.face = keys[order], third[order], face[order]
         # A directed edge used twice means the mesh is not an oriented manifold there: such
         # edges never answer, so a propagation through them fails verification.
@@ -664,6 +665,16 @@ class _GridTable:
         self.next = np.full(n * n, -1, dtype=np.int64)
         self.prev[loop] = np.roll(loop, 1)
         self.next[loop] = np.roll(loop, -1)
+        # Every cell in each of its 4 rotations, for the row sweep (see :func:`_sweep`):
+        # ``spin[r]`` is (N-1, N-1, 4) corners A, B, C, D, ``spin_ac[r]`` the A-C diagonal.
+        ci, cj = np.divmod(np.arange((n - 1) ** 2), n - 1)
+        c00 = ci * n + cj
+        cycle = [c00, c00 + 1, c00 + n + 1, c00 + n]
+        self.spin = np.stack(
+            [np.stack([cycle[(r + k) % 4] for k in range(4)], axis=-1) for r in range(4)]
+        ).reshape(4, n - 1, n - 1, 4)
+        main = self.main.reshape(n - 1, n - 1)
+        self.spin_ac = np.stack([main, ~main, main, ~main])
 
     def _cells_around(self, positions: NDArray[np.int64]) -> tuple[NDArray, NDArray]:
         """The (up to) 4 cells with a corner at each position: (k, 4) cell index, valid mask."""
@@ -762,6 +773,67 @@ def _cell_step(
     )
 
 
+def _sweep(
+    index: NDArray[np.int64], table: _GridTable, lookup: _Lookup, seed: NDArray[np.int64]
+) -> bool:
+    """Fill the interior from a seed cell by whole rows of cells, in place; False on a
+    contradiction.
+
+    The same propagation as the breadth-first walk of :func:`_interior` (a cell whose A, B are
+    known gives C and D), in an order that needs a few hundred small array operations instead
+    of a breadth-first front per step: along the seed cell's row of cells in both directions,
+    then row by row down and up, every row at once.  What it cannot reach (a partial grid) is
+    left to :func:`_interior`, which continues from the edge of what is known; the closure of
+    the propagation does not depend on its order, and a sample computed twice (from the two
+    cells that share it) must agree.
+    """
+    n = table.n
+    lo, hi = 1, n - 3  # cells whose four corners are off the border
+    i0 = int(np.min(seed // n))
+    j0 = int(np.min(seed % n))
+    if not (lo <= i0 <= hi and lo <= j0 <= hi):
+        return True
+
+    def step(rows: NDArray[np.int64], ac: NDArray[np.bool_]) -> bool:
+        r, w = _cell_step(index, rows, ac, lookup)
+        return len(r) == 0 or _assign(index, r, w) is not None
+
+    spin, spin_ac = table.spin, table.spin_ac
+    if not step(spin[:, i0, j0], spin_ac[:, i0, j0]):
+        return False
+    # Along the seed's row of cells, both ways at once: rotation 3 has A, B on a cell's left
+    # edge (going right), rotation 1 on its right edge (going left).
+    for d in range(1, max(hi - j0, j0 - lo) + 1):
+        turn = [t for t, j in ((3, j0 + d), (1, j0 - d)) if lo <= j <= hi]
+        js = [j0 + d if t == 3 else j0 - d for t in turn]
+        if not step(spin[turn, i0, js], spin_ac[turn, i0, js]):
+            return False
+    # Then whole rows, up and down at once: rotation 0 has A, B on the top edge (going down),
+    # rotation 2 on the bottom edge (going up).
+    width = hi - lo + 1
+    cols = np.arange(lo, hi + 1)
+    for d in range(1, max(hi - i0, i0 - lo) + 1):
+        turn = [t for t, i in ((0, i0 + d), (2, i0 - d)) if lo <= i <= hi]
+        ts = np.repeat(turn, width)
+        is_ = np.repeat([i0 + d if t == 0 else i0 - d for t in turn], width)
+        js = np.tile(cols, len(turn))
+        if not step(spin[ts, is_, js], spin_ac[ts, is_, js]):
+            return False
+    return True
+
+
+def _edge_of_known(index: NDArray[np.int64], table: _GridTable) -> NDArray[np.int64]:
+    """Known interior samples next to an unknown interior one (8-neighbourhood)."""
+    n = table.n
+    inner = ~table.border
+    unknown = np.pad((inner & (index < 0)).reshape(n, n), 1)
+    near = np.zeros((n, n), dtype=bool)
+    for di in (0, 1, 2):
+        for dj in (0, 1, 2):
+            near |= unknown[di : di + n, dj : dj + n]
+    return np.flatnonzero(inner & (index >= 0) & near.ravel())
+
+
 def _interior(
     index: NDArray[np.int64],
     table: _GridTable,
@@ -782,13 +854,7 @@ def _interior(
     if np.all(index[inner] >= 0):
         return True
     # Only known samples next to an unknown interior one can reach anything new.
-    n = table.n
-    unknown = np.pad((inner & (index < 0)).reshape(n, n), 1)
-    near = np.zeros((n, n), dtype=bool)
-    for di in (0, 1, 2):
-        for dj in (0, 1, 2):
-            near |= unknown[di : di + n, dj : dj + n]
-    frontier = np.flatnonzero(inner & (index >= 0) & near.ravel())
+    frontier = _edge_of_known(index, table)
     while frontier is not None and len(frontier):
         r, w = _step(index, table.inner_rows_touching(frontier), lookup)
         frontier = _assign(index, r, w)
@@ -903,6 +969,11 @@ def _walk(
     frontier = _assign(index, samples, seed)
     if frontier is None or np.any(table.border[samples]):
         return None
+    if base is None:
+        # The fast order first; the breadth-first walk goes on from the edge of what it left.
+        if not _sweep(index, table, lookup, samples[:3]):
+            return None
+        frontier = _edge_of_known(index, table)
     strict: NDArray[np.bool_] | None = None
     while True:
         if not _interior(index, table, lookup, frontier):

@@ -481,13 +481,26 @@ def _load_with_trimesh(
             raw = geometry.metadata.get("_ply_raw")
             if isinstance(raw, dict) and not _ply_list_counts_consistent(raw):
                 raise MeshError("PLY lists have inconsistent lengths (corrupt face data?)")
-    meshes = [g for g in scene.dump() if isinstance(g, trimesh.Trimesh)]
     vertex_parts: list[NDArray] = []
     face_parts: list[NDArray] = []
     offset = 0
-    for mesh in meshes:
+    # What ``scene.dump()`` gives, without its copies and cache hashing (most of the time of
+    # a read): each geometry instance with its node transform applied, the winding reversed
+    # when the transform mirrors (as ``Trimesh.apply_transform`` does).
+    for node in scene.graph.nodes_geometry:
+        transform, name = scene.graph[node]
+        mesh = scene.geometry[name]
+        if not isinstance(mesh, trimesh.Trimesh):
+            continue
         vertices = np.asarray(mesh.vertices)
         faces = np.asarray(mesh.faces)
+        if not np.array_equal(transform, np.eye(4)):
+            vertices = trimesh.transformations.transform_points(vertices, transform)
+            linear = transform[:3, :3]
+            if not np.allclose(linear, np.eye(3), atol=1e-6) and (
+                trimesh.transformations.flips_winding(transform)
+            ):
+                faces = faces[:, ::-1]
         if faces.size:
             if faces.ndim != 2 or faces.shape[1] != 3:
                 raise MeshError(f"faces could not be triangulated (shape {faces.shape})")

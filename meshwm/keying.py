@@ -71,11 +71,15 @@ def key_bytes(key: str | bytes, purpose: str, length: int) -> bytes:
     length = _check_count(length, "length")
     label = purpose.encode("utf-8") + b"\x00"
     blocks = -(-length // _BLOCK)
-    out = b"".join(
-        hmac.new(secret, label + k.to_bytes(8, "big"), hashlib.sha256).digest()
-        for k in range(blocks)
-    )
-    return out[:length]
+    # The keyed state after the label, copied per block: the same HMAC, without re-keying.
+    base = hmac.new(secret, label, hashlib.sha256)
+
+    def block(k: int) -> bytes:
+        h = base.copy()
+        h.update(k.to_bytes(8, "big"))
+        return h.digest()
+
+    return b"".join(block(k) for k in range(blocks))[:length]
 
 
 def keyed_uniform(key: str | bytes, purpose: str, count: int) -> NDArray[np.float64]:

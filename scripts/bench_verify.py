@@ -1,0 +1,644 @@
+"""Verify throughput on a folder of marked assets (issue #5).
+
+What it measures
+----------------
+A folder of ``--count`` (default 200) marked assets at N = 256, generated from the dev meshes
+in ``../shared/meshes``: each mesh is remeshed once (``mesh_to_geometry_image``) and marked
+with ``count / 10`` different 8-byte ids under one key (``embed(..., ident=...)``), written as
+binary PLY, with a ``manifest.json`` (file -> id).  The folder is reused when its manifest
+matches (``--regenerate`` forces a new one).  Then, over the same file list:
+
+load only
+    ``meshwm.io.read_mesh`` of every file, in this process, one after the other.
+verify --jobs 1
+    ``meshwm.batch.run_local(paths, Check(any_id=True), jobs=1)``: in this process.
+verify --jobs 2
+    The same with ``jobs=2`` (a process pool; its start-up is included, as a user sees it).
+dask
+    ``meshwm.batch.run_dask`` on a ``LocalCluster(n_workers=2, threads_per_worker=1)``; the
+    cluster's start-up is reported separately, not timed.
+CLI
+    ``python -m meshwm verify DIR --key K --any-id --jobs 2 --jsonl`` end to end (a
+    subprocess: interpreter start-up, imports and the pool included).
+
+Each row: files, seconds, assets/s, assets/s per core, correct ids (the id decoded with
+``--any-id`` equals the manifest's), the speed-up over ``--jobs 1`` and the ratio of the
+verify time to the load-only time.  Then the targets of issue #5: ≥ 20 assets/s per core
+(``--jobs 1``) and ≥ 1.8× from 1 to 2 jobs.  Also a per-stage breakdown on ``--breakdown``
+files (median seconds per file: read, check_mesh, ``meshwm.grid.recover_grid``, decode).
+
+With ``--reorder``, the same measurements on a copy of the folder with every file's vertex
+and face order shuffled (``meshwm.attacks.reorder``): files re-exported by other tools lose
+the writer's order.
+
+Timings are wall clock on a shared machine; the 1-minute load average before each
+measurement is recorded next to it.  Nothing is asserted: the exit code is 1 only if an id
+is wrong or missing.
+
+How to run
+----------
+::
+
+    python scripts/bench_verify.py
+    python scripts/bench_verify.py --count 400 --reorder --json /tmp/bench_verify.json
+    python scripts/bench_verify.py --regenerate --assets /tmp/other-folder
+"""
+
+from __future__ import annotations
+
+import argparse
+import hashlib
+import json
+import os
+import shlex
+import statistics
+import subprocess
+import sys
+import time
+from collections.abc import Callable, Sequence
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+from typing import Any
+
+REPO_ROOT = Path(__file__).resolve().parent.parent
+DEFAULT_MESHES = REPO_ROOT.parent / "shared" / "meshes"
+DEFAULT_ASSETS = Path("/tmp/meshwm-bench-verify/assets")
+KEY = "bench-verify-key"
+SIZE = 256
+MANIFEST = "manifest.json"
+MANIFEST_VERSION = 1
+TARGET_PER_CORE = 20.0
+TARGET_SPEEDUP = 1.8
+
+try:
+    import meshwm  # noqa: F401
+except ImportError:
+    sys.path.insert(0, str(REPO_ROOT))
+
+from _machine import machine_info  # noqa: E402
+
+from meshwm._validate import check_mesh  # noqa: E402
+from meshwm.attacks import reorder  # noqa: E402
+from meshwm.batch import Check, run_dask, run_local  # noqa: E402
+from meshwm.embed import _decode, _read_grid, embed  # noqa: E402
+from meshwm.geometry_image import mesh_to_geometry_image  # noqa: E402
+from meshwm.grid import GridError, recover_grid  # noqa: E402
+from meshwm.io import read_mesh, write_mesh  # noqa: E402
+from meshwm.params import WatermarkParams  # noqa: E402
+from meshwm.payload import PAYLOAD_BITS, decode_id  # noqa: E402
+
+# --------------------------------------------------------------------------------------------
+# assets
+
+
+def asset_id(mesh: str, k: int) -> bytes:
+    """The 8-byte id of the k-th copy of ``mesh`` (deterministic)."""
+    return hashlib.sha256(f"{mesh}/{k}".encode()).digest()[:8]
+
+
+def plan(meshes: Sequence[Path], count: int) -> dict[str, list[tuple[str, str]]]:
+    """Mesh path -> [(file name, id hex)]: ``count`` files spread evenly over the meshes."""
+    out: dict[str, list[tuple[str, str]]] = {}
+    per, extra = divmod(count, len(meshes))
+    for m, mesh in enumerate(meshes):
+        n = per + (1 if m < extra else 0)
+        out[str(mesh)] = [
+            (f"{mesh.stem}_{k:03d}.ply", asset_id(mesh.stem, k).hex()) for k in range(n)
+        ]
+    return out
+
+
+def _mark_one_mesh(args: tuple[str, list[tuple[str, str]], str]) -> dict[str, Any]:
+    """Worker: remesh one dev mesh once, then embed and write each of its ids."""
+    mesh, items, folder = args
+    t0 = time.perf_counter()
+    v, f = read_mesh(mesh)
+    gim = mesh_to_geometry_image(v, f, size=SIZE)
+    t_gim = time.perf_counter() - t0
+    t1 = time.perf_counter()
+    params = WatermarkParams(size=SIZE)
+    for name, hexid in items:
+        res = embed(
+            v,
+            f,
+            key=KEY,
+            params=params,
+            ident=bytes.fromhex(hexid),
+            geometry_image=gim,
+            distances=False,
+        )
+        write_mesh(Path(folder) / name, res.vertices, res.faces)
+    return {
+        "mesh": Path(mesh).name,
+        "files": len(items),
+        "gim_seconds": t_gim,
+        "embed_write_seconds": time.perf_counter() - t1,
+        "vertices": len(res.vertices) if items else 0,
+        "faces": len(res.faces) if items else 0,
+    }
+
+
+def _manifest_matches(folder: Path, wanted: dict[str, Any]) -> bool:
+    try:
+        have = json.loads((folder / MANIFEST).read_text())
+    except (OSError, ValueError):
+        return False
+    if any(have.get(k) != wanted[k] for k in ("version", "key", "size", "count", "files")):
+        return False
+    return all((folder / name).is_file() for name in wanted["files"])
+
+
+def generate(
+    folder: Path, meshes: Sequence[Path], count: int, regenerate: bool, workers: int
+) -> dict[str, Any]:
+    """Make (or reuse) the asset folder; the manifest, plus how long generation took."""
+    layout = plan(meshes, count)
+    files = {name: hexid for items in layout.values() for name, hexid in items}
+    wanted = {
+        "version": MANIFEST_VERSION,
+        "key": KEY,
+        "size": SIZE,
+        "count": count,
+        "meshes": [Path(m).name for m in layout],
+        "files": files,
+    }
+    if not regenerate and _manifest_matches(folder, wanted):
+        return {**wanted, "reused": True, "seconds": 0.0, "per_mesh": []}
+    folder.mkdir(parents=True, exist_ok=True)
+    for old in folder.glob("*.ply"):
+        old.unlink()
+    (folder / MANIFEST).unlink(missing_ok=True)
+    t0 = time.perf_counter()
+    # Largest meshes first, so the two workers finish at about the same time.
+    jobs = sorted(
+        ((m, items, str(folder)) for m, items in layout.items()),
+        key=lambda job: -Path(job[0]).stat().st_size,
+    )
+    with ProcessPoolExecutor(max_workers=workers) as pool:
+        per_mesh = list(pool.map(_mark_one_mesh, jobs))
+    seconds = time.perf_counter() - t0
+    (folder / MANIFEST).write_text(json.dumps(wanted, indent=1, sort_keys=True))
+    return {**wanted, "reused": False, "seconds": seconds, "per_mesh": per_mesh}
+
+
+def _reorder_one(args: tuple[str, str, int]) -> None:
+    src, dst, seed = args
+    v, f = read_mesh(src)
+    rv, rf = reorder(v, f, seed=seed)
+    write_mesh(dst, rv, rf)
+
+
+def generate_reordered(
+    source: Path, folder: Path, manifest: dict[str, Any], regenerate: bool, workers: int
+) -> dict[str, Any]:
+    """A copy of ``source`` with every file's vertex and face order shuffled."""
+    wanted = {k: manifest[k] for k in ("key", "size", "count", "meshes", "files")}
+    wanted["version"] = MANIFEST_VERSION
+    wanted["reordered_from"] = str(source)
+    if not regenerate and _manifest_matches(folder, wanted):
+        have = json.loads((folder / MANIFEST).read_text())
+        if have.get("reordered_from") == str(source):
+            return {**wanted, "reused": True, "seconds": 0.0}
+    folder.mkdir(parents=True, exist_ok=True)
+    for old in folder.glob("*.ply"):
+        old.unlink()
+    (folder / MANIFEST).unlink(missing_ok=True)
+    t0 = time.perf_counter()
+    jobs = [
+        (str(source / name), str(folder / name), 5000 + k)
+        for k, name in enumerate(sorted(wanted["files"]))
+    ]
+    with ProcessPoolExecutor(max_workers=workers) as pool:
+        list(pool.map(_reorder_one, jobs, chunksize=4))
+    seconds = time.perf_counter() - t0
+    (folder / MANIFEST).write_text(json.dumps(wanted, indent=1, sort_keys=True))
+    return {**wanted, "reused": False, "seconds": seconds}
+
+
+# --------------------------------------------------------------------------------------------
+# measurements
+
+
+def _loadavg() -> float | None:
+    try:
+        return round(os.getloadavg()[0], 2)
+    except OSError:
+        return None
+
+
+def score(rows: Sequence[dict[str, Any]], files: dict[str, str]) -> dict[str, int]:
+    """Correct ids, wrong ids, missing ids and error rows, against the manifest."""
+    correct = wrong = missing = errors = 0
+    for row in rows:
+        want = files.get(Path(row["path"]).name)
+        if row.get("error"):
+            errors += 1
+        if row.get("id") is None:
+            missing += 1
+        elif row["id"] == want:
+            correct += 1
+        else:
+            wrong += 1
+    return {"correct": correct, "wrong": wrong, "missing": missing, "errors": errors}
+
+
+def measure(
+    name: str,
+    cores: int,
+    run: Callable[[], list[dict[str, Any]] | None],
+    n_files: int,
+    files: dict[str, str] | None,
+) -> dict[str, Any]:
+    load = _loadavg()
+    t0 = time.perf_counter()
+    rows = run()
+    seconds = time.perf_counter() - t0
+    out: dict[str, Any] = {
+        "name": name,
+        "files": n_files,
+        "cores": cores,
+        "seconds": seconds,
+        "assets_per_s": n_files / seconds,
+        "assets_per_s_per_core": n_files / seconds / cores,
+        "loadavg_1min_before": load,
+    }
+    if rows is not None and files is not None:
+        out.update(score(rows, files))
+        out["file_seconds"] = {Path(r["path"]).name: r["seconds"] for r in rows}
+    print(f"  {name}: {seconds:.1f} s", file=sys.stderr, flush=True)
+    return out
+
+
+def run_cli(folder: Path, jobs: int) -> tuple[list[dict[str, Any]], dict[str, Any]]:
+    cmd = [sys.executable, "-m", "meshwm", "verify", str(folder), "--key", KEY]
+    cmd += ["--any-id", "--jobs", str(jobs), "--jsonl"]
+    proc = subprocess.run(cmd, capture_output=True, text=True, check=False)
+    rows: list[dict[str, Any]] = []
+    summary: dict[str, Any] = {}
+    for line in proc.stdout.splitlines():
+        try:
+            obj = json.loads(line)
+        except ValueError:
+            continue
+        if "summary" in obj:
+            summary = obj["summary"]
+        else:
+            rows.append(obj)
+    info = {
+        "command": shlex.join(cmd),
+        "exit_code": proc.returncode,
+        "summary": summary,
+        "stderr_tail": proc.stderr[-2000:],
+    }
+    return rows, info
+
+
+def measure_folder(
+    folder: Path, files: dict[str, str], dask_client: Any, label: str
+) -> list[dict[str, Any]]:
+    """The five rows (load only, jobs 1, jobs 2, dask, CLI) on one folder."""
+    paths = [folder / name for name in sorted(files)]
+    n = len(paths)
+    check = Check(key=KEY, params=WatermarkParams(), any_id=True)
+    for p in paths:  # untimed: the same page-cache state for every row
+        p.read_bytes()
+
+    def load_only() -> None:
+        for p in paths:
+            read_mesh(p)
+
+    rows = [measure(f"{label}load only", 1, load_only, n, None)]
+    rows.append(
+        measure(
+            f"{label}verify --jobs 1", 1, lambda: list(run_local(paths, check, jobs=1)), n, files
+        )
+    )
+    rows.append(
+        measure(
+            f"{label}verify --jobs 2", 2, lambda: list(run_local(paths, check, jobs=2)), n, files
+        )
+    )
+    if dask_client is not None:
+        rows.append(
+            measure(
+                f"{label}dask LocalCluster 2x1",
+                2,
+                lambda: list(run_dask(paths, check, scheduler=dask_client)),
+                n,
+                files,
+            )
+        )
+    cli_info: dict[str, Any] = {}
+
+    def cli() -> list[dict[str, Any]]:
+        got, info = run_cli(folder, 2)
+        cli_info.update(info)
+        return got
+
+    row = measure(f"{label}CLI verify --jobs 2 --jsonl", 2, cli, n, files)
+    row["cli"] = cli_info
+    if len(row["file_seconds"]) != n:
+        row["note"] = f"CLI printed {len(row['file_seconds'])} rows for {n} files"
+    rows.append(row)
+    base = rows[1]["assets_per_s"]
+    load_s = rows[0]["seconds"]
+    for r in rows:
+        r["speedup_vs_jobs1"] = r["assets_per_s"] / base
+        r["ratio_to_load"] = r["seconds"] / load_s
+    return rows
+
+
+def breakdown(paths: Sequence[Path], params: WatermarkParams) -> dict[str, Any]:
+    """Median seconds per file of each stage of ``extract_id``, called piece by piece."""
+    stages: dict[str, list[float]] = {
+        "read": [],
+        "check_mesh": [],
+        "recover_grid": [],
+        "decode": [],
+    }
+    totals: list[float] = []
+    fallbacks = 0
+    ids: dict[str, str | None] = {}
+    warm = read_mesh(paths[0])
+    _decode(*_read_grid(*warm, 5_000_000), PAYLOAD_BITS, KEY, params)  # warm-up, untimed
+    for p in paths:
+        t0 = time.perf_counter()
+        v, f = read_mesh(p)
+        t1 = time.perf_counter()
+        cv, cf = check_mesh(v, f)
+        t2 = time.perf_counter()
+        try:
+            grid = recover_grid(cv, cf)
+            gv, gf = cv, cf
+        except GridError:  # as extract_id does: clean, then read again
+            fallbacks += 1
+            grid, gv, gf = _read_grid(cv, cf, 5_000_000)
+        t3 = time.perf_counter()
+        bits, confidence, _, _ = _decode(grid, gv, gf, PAYLOAD_BITS, KEY, params)
+        ids[p.name] = decode_id(bits, confidence)
+        t4 = time.perf_counter()
+        for name, dt in zip(stages, (t1 - t0, t2 - t1, t3 - t2, t4 - t3), strict=True):
+            stages[name].append(dt)
+        totals.append(t4 - t0)
+    return {
+        "files": len(paths),
+        "median_seconds": {k: statistics.median(v) for k, v in stages.items()},
+        "median_total": statistics.median(totals),
+        "grid_fallbacks_to_clean": fallbacks,
+        "ids": ids,
+    }
+
+
+# --------------------------------------------------------------------------------------------
+# output
+
+
+def source_state() -> dict[str, Any]:
+    """The commit, the modified files and a hash of meshwm's sources (they may be in flux)."""
+
+    def git(*cmd: str) -> str:
+        try:
+            out = subprocess.run(
+                ["git", *cmd], cwd=REPO_ROOT, capture_output=True, text=True, check=False
+            )
+        except OSError:
+            return ""
+        return out.stdout.strip()
+
+    digest = hashlib.sha256()
+    for p in sorted((REPO_ROOT / "meshwm").glob("*.py")):
+        digest.update(p.name.encode() + b"\0" + p.read_bytes())
+    return {
+        "commit": git("rev-parse", "--short", "HEAD"),
+        "modified": [ln.strip() for ln in git("status", "--short", "--", "meshwm").splitlines()],
+        "meshwm_sources_sha256": digest.hexdigest()[:16],
+    }
+
+
+def print_table(rows: Sequence[dict[str, Any]]) -> None:
+    head = [
+        "run",
+        "files",
+        "s",
+        "assets/s",
+        "assets/s/core",
+        "correct ids",
+        "speed-up vs jobs 1",
+        "time / load-only",
+        "load avg",
+    ]
+    print("| " + " | ".join(head) + " |")
+    print("|---|" + "---:|" * (len(head) - 1))
+    for r in rows:
+        ids = f"{r['correct']}/{r['files']}" if "correct" in r else "-"
+        if r.get("wrong") or r.get("errors"):
+            ids += f" ({r['wrong']} wrong, {r['errors']} errors)"
+        cells = [
+            r["name"],
+            str(r["files"]),
+            f"{r['seconds']:.2f}",
+            f"{r['assets_per_s']:.2f}",
+            f"{r['assets_per_s_per_core']:.2f}",
+            ids,
+            f"{r['speedup_vs_jobs1']:.2f}",
+            f"{r['ratio_to_load']:.1f}",
+            str(r["loadavg_1min_before"]),
+        ]
+        print("| " + " | ".join(cells) + " |")
+
+
+def targets(rows: Sequence[dict[str, Any]]) -> dict[str, Any]:
+    by = {r["name"].split(": ")[-1]: r for r in rows}
+    per_core = by["verify --jobs 1"]["assets_per_s_per_core"]
+    speedup = by["verify --jobs 2"]["speedup_vs_jobs1"]
+    return {
+        "per_core_jobs1": per_core,
+        "per_core_met": per_core >= TARGET_PER_CORE,
+        "speedup_1_to_2": speedup,
+        "speedup_met": speedup >= TARGET_SPEEDUP,
+    }
+
+
+def print_targets(t: dict[str, Any]) -> None:
+    met = {True: "MET", False: "NOT MET"}
+    print(
+        f"≥ {TARGET_PER_CORE:g} assets/s per core (--jobs 1): {met[t['per_core_met']]} "
+        f"({t['per_core_jobs1']:.1f})"
+    )
+    print(
+        f"≥ {TARGET_SPEEDUP:g}× from 1 to 2 jobs: {met[t['speedup_met']]} "
+        f"({t['speedup_1_to_2']:.2f})"
+    )
+
+
+def per_mesh_medians(row: dict[str, Any], files: dict[str, str]) -> dict[str, float]:
+    """Median verify seconds per file (as verify_file reports them), per source mesh."""
+    groups: dict[str, list[float]] = {}
+    for name, s in row.get("file_seconds", {}).items():
+        if s is not None and name in files:
+            groups.setdefault(name.rsplit("_", 1)[0], []).append(s)
+    return {m: statistics.median(v) for m, v in sorted(groups.items())}
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--assets", type=Path, default=DEFAULT_ASSETS, help="asset folder")
+    parser.add_argument("--meshes", type=Path, default=DEFAULT_MESHES, help="dev mesh folder")
+    parser.add_argument("--count", type=int, default=200, help="marked assets (200)")
+    parser.add_argument("--regenerate", action="store_true", help="make the assets anew")
+    parser.add_argument("--workers", type=int, default=2, help="processes for generation (2)")
+    parser.add_argument("--breakdown", type=int, default=20, help="files in the stage breakdown")
+    parser.add_argument("--no-dask", action="store_true", help="skip the Dask LocalCluster row")
+    parser.add_argument(
+        "--reorder", action="store_true", help="also a copy with vertex and face order shuffled"
+    )
+    parser.add_argument("--json", type=Path, help="write everything to this JSON file")
+    args = parser.parse_args(argv)
+    if args.count < 1:
+        parser.error("--count must be positive")
+
+    meshes = sorted(p for p in args.meshes.iterdir() if p.suffix.lower() == ".ply")
+    if not meshes:
+        parser.error(f"no .ply meshes in {args.meshes}")
+    info = machine_info("numpy", "scipy", "libigl", "trimesh", "dask", "distributed")
+    print(f"machine: {info}")
+    print(f"command: {shlex.join([sys.executable, *sys.argv])}")
+    state = source_state()
+    print(
+        f"source: commit {state['commit']}, meshwm sources {state['meshwm_sources_sha256']}, "
+        f"modified: {', '.join(state['modified']) or 'none'}"
+    )
+
+    gen = generate(args.assets, meshes, args.count, args.regenerate, args.workers)
+    files: dict[str, str] = gen["files"]
+    if gen["reused"]:
+        print(f"assets: reused {len(files)} files in {args.assets} (manifest matches)")
+    else:
+        print(
+            f"assets: generated {len(files)} files in {args.assets} in {gen['seconds']:.1f} s "
+            f"({args.workers} processes, one geometry image per mesh)"
+        )
+        for m in gen["per_mesh"]:
+            print(
+                f"  {m['mesh']}: {m['files']} files, geometry image {m['gim_seconds']:.2f} s, "
+                f"embed + write {m['embed_write_seconds']:.2f} s "
+                f"({m['vertices']} V, {m['faces']} F)"
+            )
+    size_mb = sum((args.assets / n).stat().st_size for n in files) / 1e6
+    print(f"folder: {size_mb:.0f} MB, N = {SIZE}, key {KEY!r}, {len(meshes)} dev meshes")
+
+    folders: list[tuple[str, Path, dict[str, Any]]] = [("", args.assets, {})]
+    if args.reorder:
+        rfolder = args.assets.parent / (args.assets.name + "-reordered")
+        rgen = generate_reordered(args.assets, rfolder, gen, args.regenerate, args.workers)
+        note = "reused" if rgen["reused"] else f"made in {rgen['seconds']:.1f} s"
+        print(f"reordered copy: {rfolder} ({note})")
+        folders.append(("reordered: ", rfolder, rgen))
+
+    client = cluster = None
+    startup = None
+    if not args.no_dask:
+        from distributed import Client, LocalCluster
+
+        t0 = time.perf_counter()
+        cluster = LocalCluster(
+            n_workers=2,
+            threads_per_worker=1,
+            processes=True,
+            dashboard_address=None,
+            silence_logs=40,
+        )
+        client = Client(cluster)
+        client.wait_for_workers(2)
+        startup = time.perf_counter() - t0
+        print(f"dask LocalCluster(2 workers x 1 thread) start-up: {startup:.2f} s (not timed)")
+
+    results: dict[str, Any] = {}
+    try:
+        for label, folder, _ in folders:
+            rows = measure_folder(folder, files, client, label)
+            results[label or "plain"] = rows
+    finally:
+        if client is not None:
+            client.close()
+        if cluster is not None:
+            cluster.close()
+
+    print()
+    all_rows = [r for rows in results.values() for r in rows]
+    print_table(all_rows)
+    print()
+    print("assets/s per core: files / seconds / processes (1 for load only and --jobs 1).")
+    print("Shared 2-core machine, other work running: timings are noisy (load avg per row).")
+    tgt = targets(results["plain"])
+    print()
+    print_targets(tgt)
+    if "reordered" in results:
+        rt = targets(results["reordered"])
+        print("reordered copy:")
+        print_targets(rt)
+    else:
+        rt = None
+
+    cli_rows = [r for r in all_rows if "cli" in r]
+    for r in cli_rows:
+        c = r["cli"]
+        print(f"{r['name']}: exit code {c['exit_code']}, summary {c['summary']}")
+
+    jobs1 = results["plain"][1]
+    medians = per_mesh_medians(jobs1, files)
+    print()
+    print("verify --jobs 1, median seconds per file (verify_file's own timing) by source mesh:")
+    print("  " + ", ".join(f"{m} {s:.3f}" for m, s in medians.items()))
+
+    names = sorted(files)
+    step = max(1, len(names) // max(1, args.breakdown))
+    chosen = names[::step][: args.breakdown]
+    breakdowns: dict[str, Any] = {}
+    bad = sum(r.get("wrong", 0) + r.get("missing", 0) for r in all_rows)
+    bad += sum(1 for r in cli_rows if r["cli"]["exit_code"] != 0)
+    for label, folder, _ in folders:
+        bd = breakdown([folder / n for n in chosen], WatermarkParams())
+        bd["correct"] = sum(bd["ids"][n] == files[n] for n in chosen)
+        bad += bd["files"] - bd["correct"]
+        breakdowns[label or "plain"] = bd
+        print()
+        print(
+            f"{label}stage breakdown (in-process, {bd['files']} files spread over the meshes, "
+            "medians):"
+        )
+        print("| stage | median s/file | share of median total |")
+        print("|---|---:|---:|")
+        total = bd["median_total"]
+        for stage, s in bd["median_seconds"].items():
+            print(f"| {stage} | {s:.4f} | {100 * s / total:.0f} % |")
+        print(f"| total | {total:.4f} | |")
+        print(
+            f"ids correct {bd['correct']}/{bd['files']}, recover_grid needed the clean "
+            f"fallback {bd['grid_fallbacks_to_clean']} times"
+        )
+
+    if args.json:
+        out = {
+            "command": [sys.executable, *sys.argv],
+            "machine": info,
+            "source": state,
+            "size": SIZE,
+            "key": KEY,
+            "assets": str(args.assets),
+            "generation": {k: v for k, v in gen.items() if k != "files"},
+            "dask_startup_seconds": startup,
+            "results": results,
+            "targets": tgt,
+            "targets_reordered": rt,
+            "per_mesh_median_seconds_jobs1": medians,
+            "breakdown": breakdowns,
+            "problems": bad,
+        }
+        args.json.write_text(json.dumps(out, indent=1, default=str))
+        print(f"\nwrote {args.json}")
+    return 1 if bad else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
