@@ -420,3 +420,28 @@ def test_closed_genus_one_stays_watertight(marked_kitten, kitten_mesh):
     )
     found = extract(v, f, key=KEY, expected=MARK)
     assert found.report["ber"] == 0.0
+
+
+def test_reader_decodes_many_keys_like_extract(spot_mesh):
+    """One Reader, several keys: the same results as a fresh extract per key."""
+    from meshwm.embed import Reader, extract, extract_id
+
+    v, f = spot_mesh
+    p = WatermarkParams(size=64)
+    logo = default_mark(8)
+    marked = embed(v, f, logo, key="right", params=p, distances=False)
+    reader = Reader(marked.vertices, marked.faces, params=p)
+    assert reader.grid.n == 64
+    for key in ("right", "wrong", "right"):
+        a = reader.extract(key=key, mark_size=8, expected=logo)
+        b = extract(marked.vertices, marked.faces, key=key, mark_size=8, expected=logo, params=p)
+        assert a.mark.tolist() == b.mark.tolist()
+        assert a.report["p_value"] == b.report["p_value"]
+        assert a.report["hypotheses"] == b.report["hypotheses"]
+    assert reader.extract(key="right", mark_size=8, expected=logo).report["ber"] == 0.0
+    ident = bytes.fromhex("00112233445566ff")
+    with_id = embed(v, f, key="right", params=p, distances=False, ident=ident)
+    reader = Reader(with_id.vertices, with_id.faces, params=p)
+    assert reader.extract_id(key="right").id == ident.hex()
+    assert reader.extract_id(key="wrong").id is None
+    assert extract_id(with_id.vertices, with_id.faces, key="right", params=p).id == ident.hex()

@@ -188,3 +188,70 @@ def test_embed_refuses_nan_cover():
     gim[5, 5, 0] = np.nan
     with pytest.raises(ValueError, match="NaN"):
         embed_gim_robust(gim, _bits(16), key="k", params=_params(64))
+
+
+def test_gain_search_matches_the_plain_loop():
+    """The vectorised float32 score search picks the gain a float64 loop over GAINS picks."""
+    from meshwm.robust import _FINE, GAINS, _layout, _scores, prepare_gim_robust
+
+    gim = _surface(128, seed=3)
+    bits = _bits(64, seed=4)
+    p = _params(128)
+    marked = embed_gim_robust(gim, bits, key="k", params=p).gim
+    noisy = marked + np.random.default_rng(0).normal(0, 2e-3, marked.shape)
+
+    def plain(prep, layout, gains):
+        out = []
+        for g in gains:
+            vote = prep.weight * np.cos(2 * np.pi * (prep.x / g - layout.dither))
+            out.append(np.abs(np.bincount(layout.bit, weights=vote, minlength=64)).sum())
+        return np.array(out)
+
+    for received, key in ((marked, "k"), (noisy, "k"), (marked, "other")):
+        prep = prepare_gim_robust(received, params=p)
+        layout = _layout(128, key, 64)
+        fast = _scores(prep.x, prep.weight, layout, GAINS)
+        np.testing.assert_allclose(fast, plain(prep, layout, GAINS), rtol=1e-5)
+        fine = GAINS[int(np.argmax(fast))] * _FINE
+        got = _scores(prep.x, prep.weight, layout, fine)
+        np.testing.assert_allclose(got, plain(prep, layout, fine), rtol=1e-5)
+
+
+def test_prepared_decoding_equals_one_shot_extraction():
+    from meshwm.robust import decode_robust, prepare_gim_robust
+
+    gim = _surface(128, seed=7)
+    bits = _bits(64, seed=8)
+    p = _params(128)
+    marked = embed_gim_robust(gim, bits, key="k", params=p).gim
+    marked[40:60, 10:30] = np.nan  # a crop
+    prep = prepare_gim_robust(marked, params=p)
+    for key in ("k", "x", "y"):
+        one = extract_gim_robust(marked, 64, key=key, params=p)
+        two = decode_robust(prep, 64, key=key)
+        assert one.bits.tolist() == two.bits.tolist()
+        np.testing.assert_array_equal(one.confidence, two.confidence)
+        assert one.report == two.report
+    assert np.mean(decode_robust(prep, 64, key="k").bits != bits) < 0.05
+
+
+def test_received_mesh_decodes_many_keys_like_fresh_extractions():
+    """ReceivedMesh prepares each candidate once and gives what extract_mesh_robust gives."""
+    from meshwm.geometry_image import geometry_image_to_mesh
+    from meshwm.robust import ReceivedMesh, extract_mesh_robust
+
+    n = 64
+    gim = _surface(n, seed=9)
+    p = _params(n)
+    marked = embed_gim_robust(gim, _bits(16), key="k", params=p).gim
+    v, f = geometry_image_to_mesh(marked)
+    index = np.arange(n * n).reshape(n, n)
+    received = ReceivedMesh(v, f, index, params=p)
+    for key in ("k", "wrong", "k"):
+        a = received.decode(16, key=key)
+        b = extract_mesh_robust(v, f, index, 16, key=key, params=p)
+        assert a.bits.tolist() == b.bits.tolist()
+        assert a.report == b.report
+    assert received.decode(16, key="k").bits.tolist() == _bits(16).tolist()
+    # A weak read (wrong key) went through the unsmoothing candidates, now kept.
+    assert received._unsmoothed is not None and len(received._unsmoothed) == 12
