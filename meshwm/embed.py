@@ -67,7 +67,7 @@ from ._validate import MeshError, check_mesh
 from .clean import clean_mesh
 from .fuzzy import EMBEDDING_CLASSES, strength_class
 from .geometry_image import GeometryImage, geometry_image_to_mesh, mesh_to_geometry_image
-from .grid import GridError, recover_grid
+from .grid import GridError, drop_irregular, recover_grid
 from .keying import keyed_permutation, keyed_uniform
 from .mark import _check_bits as check_mark_bits
 from .mark import default_mark
@@ -581,18 +581,33 @@ def _read_grid(vertices: NDArray, faces: NDArray, max_faces: int):
     :func:`meshwm.grid.recover_grid`.  Connectivity as given first: quantised coordinates can
     make distinct vertices coincide, and merging them would change the connectivity.  Cleaned
     second: an STL file has no indices, and only merging coincident vertices rebuilds it.
+    Third, for a welded mesh (close vertices merged, which merges grid samples where the
+    remesh crowded them): without the faces around the vertices no grid has
+    (:func:`meshwm.grid.drop_irregular`), so each merge reads as a small hole.  Tried only
+    when those are under 5 % of the vertices, i.e. when the mesh is nearly a grid.
     """
     v, f = check_mesh(vertices, faces, max_faces=max_faces)
     try:
         # Every component: a cropped grid can fall apart into pieces, each read on its own.
         return recover_grid(v, f), v, f
     except GridError as as_given:
+        error = as_given
+    try:
+        clean = clean_mesh(v, f, max_faces=max_faces)
+    except MeshError:
+        clean = None  # not even a clean manifold: maybe welded, else no grid of ours
+    if clean is not None:
         try:
-            clean = clean_mesh(v, f, max_faces=max_faces)
-        except MeshError:
-            # Not even a clean manifold: certainly no grid of ours (absent, not an error).
-            raise as_given from None
-        return recover_grid(clean.vertices, clean.faces), clean.vertices, clean.faces
+            return recover_grid(clean.vertices, clean.faces), clean.vertices, clean.faces
+        except GridError:
+            pass
+    rv, rf, kept = drop_irregular(v, f)
+    if len(rf) == 0 or len(kept) < 0.95 * len(v):
+        raise error from None
+    try:
+        return recover_grid(rv, rf), rv, rf
+    except GridError:
+        raise error from None
 
 
 def _decode(grid, grid_v, grid_f, n_bits: int, key: str | bytes, params: WatermarkParams):

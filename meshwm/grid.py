@@ -74,7 +74,7 @@ from scipy.sparse.csgraph import connected_components
 from ._validate import check_square_pow2
 from .geometry_image import code_cells, flipped_cells, grid_faces
 
-__all__ = ["GridError", "RecoveredGrid", "recover_grid"]
+__all__ = ["GridError", "RecoveredGrid", "drop_irregular", "recover_grid"]
 
 _MIN_SIZE = 16
 _MAX_SIZE = 4096
@@ -92,6 +92,7 @@ _SEEDS = 8  # seeds per component
 _MAX_WALKS = 8  # full propagations tried per piece
 _MAX_PIECES = 6  # pieces read per component (parts connected only across a welded seam)
 _DEPTH = 3  # preferred seeds have this many clean rings of vertices around them
+_NARROW = 24  # edges out of a vertex up to which lookups compare a row instead of searching
 
 
 class GridError(ValueError):
@@ -147,6 +148,7 @@ class _Lookup:
         # Stable: fast on the nearly sorted keys of a file as the embedder wrote it.
         order = np.argsort(keys, kind="stable")
         self.keys, self.third, self.face = keys[order], third[order], face[order]
+        self.slot = order // len(faces)  # corner of the edge's first vertex in its face
         # A directed edge used twice means the mesh is not an oriented manifold there: such
         # edges never answer, so a propagation through them fails verification.
         dup = np.zeros(len(order), dtype=bool)
@@ -155,6 +157,14 @@ class _Lookup:
         self.third = np.where(dup, -1, self.third)
         self.n_vertices = n_vertices
         self.reverse = False
+        # Row pointers: vertex u's directed edges are keys[start[u] : start[u] + count[u]].
+        # Meshes of bounded valence (a meshwm grid: at most 8 edges out of a vertex, a few more
+        # at welded seams) are looked up by comparing the few keys of each row, which is much
+        # faster than a binary search over all of them.
+        count = np.bincount(faces.ravel(), minlength=n_vertices)  # edges out of each vertex
+        self.count = count
+        self.start = np.concatenate([[0], np.cumsum(count)[:-1]])
+        self.width = int(count.max()) if len(count) else 0
 
     def reversed(self) -> _Lookup:
         """The lookup of the same faces with their winding reversed (corners in reverse order).
@@ -172,11 +182,33 @@ class _Lookup:
     ) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
         if self.reverse:
             u, v = v, u
-        key = u * self.n_vertices + v
-        pos = np.searchsorted(self.keys, key)
-        pos = np.minimum(pos, len(self.keys) - 1)
-        hit = (self.keys[pos] == key) & (u >= 0) & (v >= 0)
+        pos, hit = self.find(u, v)
         return np.where(hit, self.third[pos], -1), np.where(hit, self.face[pos], -1)
+
+    def find(
+        self, u: NDArray[np.int64], v: NDArray[np.int64]
+    ) -> tuple[NDArray[np.int64], NDArray[np.bool_]]:
+        """Position of each directed edge u -> v in the sorted table, and whether it is there
+        (as given: ``reverse`` is not applied)."""
+        u, v = np.broadcast_arrays(np.asarray(u, dtype=np.int64), np.asarray(v, dtype=np.int64))
+        shape = u.shape
+        u, v = u.ravel(), v.ravel()
+        ok = (u >= 0) & (v >= 0)
+        key = u * self.n_vertices + v
+        if self.width <= _NARROW:
+            us = np.where(ok, u, 0)
+            pos = self.start[us][:, None] + np.arange(self.width)
+            inside = np.arange(self.width) < self.count[us][:, None]
+            pos = np.minimum(pos, len(self.keys) - 1)
+            match = inside & (self.keys[pos] == key[:, None])
+            k = np.argmax(match, axis=1)
+            pos = pos[np.arange(len(pos)), k]
+            hit = match[np.arange(len(pos)), k] & ok
+        else:
+            pos = np.searchsorted(self.keys, key)
+            pos = np.minimum(pos, len(self.keys) - 1)
+            hit = (self.keys[pos] == key) & ok
+        return pos.reshape(shape), hit.reshape(shape)
 
 
 class _Mesh:
@@ -193,9 +225,7 @@ class _Mesh:
         # only there is the face count the valence of the 4-8 grid.
         keys = self.lookup.keys
         u, v = np.divmod(keys, n)
-        rev = v * n + u
-        pos = np.minimum(np.searchsorted(keys, rev), len(keys) - 1)
-        lone = keys[pos] != rev
+        lone = ~self.lookup.find(v, u)[1]
         closed = np.ones(n, dtype=bool)
         closed[u[lone]] = False
         closed[v[lone]] = False
@@ -795,8 +825,20 @@ def _sweep(
         return True
 
     def step(rows: NDArray[np.int64], ac: NDArray[np.bool_]) -> bool:
-        r, w = _cell_step(index, rows, ac, lookup)
-        return len(r) == 0 or _assign(index, r, w) is not None
+        # As _cell_step + _assign, leaner: C and D of every cell whose A, B are known (known
+        # ones are recomputed and must agree), written at once, then read back: two cells
+        # that disagree on a shared corner leave one of them unequal.
+        a, b = index[rows[:, 0]], index[rows[:, 1]]
+        x, _ = lookup(a, b)
+        y, _ = lookup(np.where(ac, a, x), np.where(ac, x, b))
+        r = np.concatenate([rows[:, 2], rows[:, 3]])
+        w = np.concatenate([np.where(ac, x, y), np.where(ac, y, x)])
+        r, w = r[w >= 0], w[w >= 0]
+        old = index[r]
+        if np.any((old >= 0) & (old != w)):
+            return False
+        index[r] = w
+        return bool(np.array_equal(index[r], w))
 
     spin, spin_ac = table.spin, table.spin_ac
     if not step(spin[:, i0, j0], spin_ac[:, i0, j0]):
@@ -1156,6 +1198,81 @@ def _read_component(
             break
         index, found, n, reverse = piece
     return _Reading(n, index, len(found), hypotheses, seeded)
+
+
+# --------------------------------------------------------------------------------------------
+# welded meshes
+
+
+def drop_irregular(
+    vertices: NDArray, faces: NDArray
+) -> tuple[NDArray[np.float64], NDArray[np.int64], NDArray[np.int64]]:
+    """The mesh without the faces around vertices no meshwm grid has: for reading a welded mesh.
+
+    Welding close vertices (MeshLab's ``meshing_merge_close_vertices``, whose default merges
+    vertices closer than 1/10000 of the bounding-box diagonal) merges grid samples where the
+    remesh crowded them, and a merged vertex breaks the walk: triangles around it collapse,
+    edges turn non-manifold, two fans meet at one vertex.  Such a vertex is never one a meshwm
+    grid writes: it is *irregular* if it has a non-manifold directed edge (two faces with the
+    same u -> v), more than one fan of faces (two fans joined at a point), or a closed fan of
+    another size than an interior grid sample's (4, 5, 7 or 8 faces; seam vertices of a
+    complete grid with other valences are dropped too, which only costs border samples).
+    Dropping every face around them turns each merge into a small hole, which the reader
+    handles like a crop: the samples there are read as missing.
+
+    Returns
+    -------
+    vertices, faces : ndarray
+        What is left, re-indexed (unused vertices dropped).
+    kept : (k,) int64 ndarray
+        For each vertex left, its index in the input.
+    """
+    v = np.asarray(vertices, dtype=np.float64)
+    f = np.asarray(faces, dtype=np.int64)
+    n, m = len(v), len(f)
+    lookup = _Lookup(n, f)
+    keys = lookup.keys
+    u, w = np.divmod(keys, n)
+    irregular = np.zeros(n, dtype=bool)
+    dup = np.zeros(len(keys), dtype=bool)
+    dup[1:] = keys[1:] == keys[:-1]
+    irregular[u[dup]] = irregular[w[dup]] = True
+    pos, back = lookup.find(w, u)
+    closed = np.ones(n, dtype=bool)
+    closed[u[~back]] = closed[w[~back]] = False
+    valence = np.bincount(f.ravel(), minlength=n)
+    irregular |= closed & ~np.isin(valence, (4, 5, 7, 8))
+    # Neighbour classes: in the 4-8 grid an E sample (8 faces, or 7 at a flipped code cell)
+    # has at most 4 O and 4 E neighbours (3 at a flipped cell), an O sample (4 faces, or 5)
+    # only E neighbours (and its flipped-diagonal O partner).  Two samples merged into one
+    # vertex can keep a plausible face count but not these (neighbours whose class is unknown,
+    # open or irregular, are not counted).
+    is_e = closed & ((valence == 7) | (valence == 8))
+    is_o = closed & ((valence == 4) | (valence == 5))
+    first = np.ones(len(keys), dtype=bool)
+    first[1:] = keys[1:] != keys[:-1]
+    n_e = np.bincount(u[first], weights=is_e[w[first]], minlength=n)
+    n_o = np.bincount(u[first], weights=is_o[w[first]], minlength=n)
+    irregular |= is_e & ((n_o > 4) | (n_e > valence - 4))
+    irregular |= is_o & ((n_e > 4) | (n_o > valence - 4))
+    # Fans: the corner of u in the face of u -> w is joined to the corner of u in the face
+    # across that edge (the one with w -> u, where u follows w); a vertex whose corners fall
+    # into more than one group has more than one fan.
+    corner = lookup.slot * m + lookup.face  # corner ids: slot * m + face
+    across = ((lookup.slot[pos] + 1) % 3) * m + lookup.face[pos]
+    a, b = corner[back], across[back]
+    graph = sp.coo_matrix((np.ones(len(a)), (a, b)), shape=(3 * m, 3 * m)).tocsr()
+    _, group = connected_components(graph, directed=False)
+    owner = f.T.ravel()  # vertex of corner slot * m + face
+    pairs = np.unique(owner.astype(np.int64) * (3 * m) + group)
+    fans = np.bincount(pairs // (3 * m), minlength=n)
+    irregular |= fans > 1
+    keep = ~irregular[f].any(axis=1)
+    f = f[keep]
+    used = np.zeros(n, dtype=bool)
+    used[f.ravel()] = True
+    remap = np.cumsum(used) - 1
+    return v[used], remap[f], np.flatnonzero(used)
 
 
 # --------------------------------------------------------------------------------------------
