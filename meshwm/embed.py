@@ -583,8 +583,9 @@ def _read_grid(vertices: NDArray, faces: NDArray, max_faces: int):
     second: an STL file has no indices, and only merging coincident vertices rebuilds it.
     Third, for a welded mesh (close vertices merged, which merges grid samples where the
     remesh crowded them): without the faces around the vertices no grid has
-    (:func:`meshwm.grid.drop_irregular`), so each merge reads as a small hole.  Tried only
-    when those are under 5 % of the vertices, i.e. when the mesh is nearly a grid.
+    (:func:`meshwm.grid.drop_irregular`), so each merge reads as a small hole; then without
+    one more ring of faces around them.  Tried only when those vertices are under 5 % of the
+    vertices, i.e. when the mesh is nearly a grid.
     """
     v, f = check_mesh(vertices, faces, max_faces=max_faces)
     try:
@@ -604,10 +605,14 @@ def _read_grid(vertices: NDArray, faces: NDArray, max_faces: int):
     rv, rf, kept = drop_irregular(v, f)
     if len(rf) == 0 or len(kept) < 0.95 * len(v):
         raise error from None
-    try:
-        return recover_grid(rv, rf), rv, rf
-    except GridError:
-        raise error from None
+    for rings in (0, 1):
+        if rings:
+            rv, rf, kept = drop_irregular(v, f, rings=rings)
+        try:
+            return recover_grid(rv, rf), rv, rf
+        except GridError:
+            continue
+    raise error from None
 
 
 def _decode(grid, grid_v, grid_f, n_bits: int, key: str | bytes, params: WatermarkParams):
