@@ -92,7 +92,6 @@ _SEEDS = 8  # seeds per component
 _MAX_WALKS = 8  # full propagations tried per piece
 _MAX_PIECES = 6  # pieces read per component (parts connected only across a welded seam)
 _DEPTH = 3  # preferred seeds have this many clean rings of vertices around them
-_NARROW = 24  # edges out of a vertex up to which lookups compare a row instead of searching
 
 
 class GridError(ValueError):
@@ -157,14 +156,6 @@ class _Lookup:
         self.third = np.where(dup, -1, self.third)
         self.n_vertices = n_vertices
         self.reverse = False
-        # Row pointers: vertex u's directed edges are keys[start[u] : start[u] + count[u]].
-        # Meshes of bounded valence (a meshwm grid: at most 8 edges out of a vertex, a few more
-        # at welded seams) are looked up by comparing the few keys of each row, which is much
-        # faster than a binary search over all of them.
-        count = np.bincount(faces.ravel(), minlength=n_vertices)  # edges out of each vertex
-        self.count = count
-        self.start = np.concatenate([[0], np.cumsum(count)[:-1]])
-        self.width = int(count.max()) if len(count) else 0
 
     def reversed(self) -> _Lookup:
         """The lookup of the same faces with their winding reversed (corners in reverse order).
@@ -190,25 +181,10 @@ class _Lookup:
     ) -> tuple[NDArray[np.int64], NDArray[np.bool_]]:
         """Position of each directed edge u -> v in the sorted table, and whether it is there
         (as given: ``reverse`` is not applied)."""
-        u, v = np.broadcast_arrays(np.asarray(u, dtype=np.int64), np.asarray(v, dtype=np.int64))
-        shape = u.shape
-        u, v = u.ravel(), v.ravel()
-        ok = (u >= 0) & (v >= 0)
         key = u * self.n_vertices + v
-        if self.width <= _NARROW:
-            us = np.where(ok, u, 0)
-            pos = self.start[us][:, None] + np.arange(self.width)
-            inside = np.arange(self.width) < self.count[us][:, None]
-            pos = np.minimum(pos, len(self.keys) - 1)
-            match = inside & (self.keys[pos] == key[:, None])
-            k = np.argmax(match, axis=1)
-            pos = pos[np.arange(len(pos)), k]
-            hit = match[np.arange(len(pos)), k] & ok
-        else:
-            pos = np.searchsorted(self.keys, key)
-            pos = np.minimum(pos, len(self.keys) - 1)
-            hit = (self.keys[pos] == key) & ok
-        return pos.reshape(shape), hit.reshape(shape)
+        pos = np.minimum(np.searchsorted(self.keys, key), len(self.keys) - 1)
+        hit = (self.keys[pos] == key) & (u >= 0) & (v >= 0)
+        return pos, hit
 
 
 class _Mesh:
