@@ -615,14 +615,6 @@ def _read_grid(vertices: NDArray, faces: NDArray, max_faces: int):
     raise error from None
 
 
-def _decode(grid, grid_v, grid_f, n_bits: int, key: str | bytes, params: WatermarkParams):
-    """Bits, confidence, report (with ``hypotheses``) and the params used, from a read grid."""
-    reader = Reader.__new__(Reader)
-    reader._setup(grid, grid_v, grid_f, params)
-    bits, confidence, report = reader.decode(n_bits, key=key)
-    return bits, confidence, report, reader.params
-
-
 class Reader:
     """A received mesh, read once, to decode with one key or many.
 

@@ -58,10 +58,13 @@ from meshwm.geometry_image import geometry_image_to_mesh, mesh_to_geometry_image
 from meshwm.grid import GridError  # noqa: E402
 from meshwm.io import read_mesh  # noqa: E402
 from meshwm.mark import default_mark  # noqa: E402
-from meshwm.metrics import is_detected  # noqa: E402
+from meshwm.metrics import detection_p_value, is_detected  # noqa: E402
 from meshwm.payload import PAYLOAD_BITS  # noqa: E402
 
 RIGHT_KEY = "meshwm-null-study-right-key"
+#: Hypotheses of a complete unmarked grid read with every decoder candidate (192 grid seeds x
+#: orientations x sizes, 234 gains, 13 candidates): for --restat of a run that did not store it.
+HYPOTHESES_UNMARKED = 192 * 234 * 13
 MARK_BITS = 32 * 32
 
 
@@ -237,7 +240,7 @@ def chi_square(agree: np.ndarray, n: int, bins: int = 12) -> tuple[float, int, f
     cdf = np.cumsum(pmf)
     edges = [int(np.searchsorted(cdf, q)) for q in np.linspace(0, 1, bins + 1)[1:-1]]
     edges = sorted(set(edges))
-    idx = np.searchsorted(edges, agree, side="right")
+    idx = np.searchsorted(edges, agree, side="left")  # bin k holds edges[k-1]+1 .. edges[k]
     observed = np.bincount(idx, minlength=len(edges) + 1)
     probs = np.array(
         [
@@ -253,7 +256,42 @@ def chi_square(agree: np.ndarray, n: int, bins: int = 12) -> tuple[float, int, f
     return stat, dof, float(stats.chi2.sf(stat, dof))
 
 
-def plot(results: list[dict[str, Any]], out: Path) -> None:
+def agreements(results: list[dict[str, Any]]) -> dict[str, np.ndarray]:
+    """Agreement counts of every trial, per field, from the per-mesh results."""
+    fields = ("random_mark", "random_id", "wrong_mark", "wrong_id")
+    return {f: np.array([t["agree"] for r in results for t in r[f]]) for f in fields}
+
+
+def statistics_lines(agree: dict[str, np.ndarray]) -> tuple[list[str], list[dict[str, Any]]]:
+    lines, rows = [], []
+    for field, n in (
+        ("random_mark", MARK_BITS),
+        ("random_id", PAYLOAD_BITS),
+        ("wrong_mark", MARK_BITS),
+        ("wrong_id", PAYLOAD_BITS),
+    ):
+        a = agree[field]
+        stat, dof, p = chi_square(a, n)
+        rows.append(
+            {
+                "field": field,
+                "trials": len(a),
+                "mean": float(a.mean()),
+                "var": float(a.var()),
+                "chi2": stat,
+                "dof": dof,
+                "p": p,
+            }
+        )
+        lines.append(
+            f"- {field}: {len(a)} trials, agreement mean {a.mean():.2f} (binomial {n / 2:.0f}), "
+            f"variance {a.var():.1f} (binomial {n / 4:.0f}), chi-square {stat:.1f} on {dof} dof "
+            f"(12 equiprobable bins of the binomial), p = {p:.3f}"
+        )
+    return lines, rows
+
+
+def plot(agree: dict[str, np.ndarray], hypotheses: int, fpr: float, out: Path) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -261,17 +299,14 @@ def plot(results: list[dict[str, Any]], out: Path) -> None:
 
     fig, axes = plt.subplots(1, 3, figsize=(16, 4.6))
     panels = [
-        ("random_mark", MARK_BITS, "unmarked, random keys: 32×32 logo"),
-        ("random_id", PAYLOAD_BITS, "unmarked, random keys: 8-byte id"),
+        ("random_mark", "wrong_mark", MARK_BITS, "unmarked, random keys: 32×32 logo"),
+        ("random_id", "wrong_id", PAYLOAD_BITS, "unmarked, random keys: 8-byte id"),
     ]
-    for ax, (field, n, title) in zip(axes[:2], panels, strict=True):
-        agree = np.array([t["agree"] for r in results for t in r[field]])
-        wrong = np.array(
-            [t["agree"] for r in results for t in r["wrong_mark" if n == MARK_BITS else "wrong_id"]]
-        )
+    for ax, (field, wrong_field, n, title) in zip(axes[:2], panels, strict=True):
+        a, wrong = agree[field], agree[wrong_field]
         lo, hi = int(n / 2 - 5 * math.sqrt(n) / 2), int(n / 2 + 5 * math.sqrt(n) / 2)
         bins = np.arange(lo, hi + 2) - 0.5
-        ax.hist(agree, bins=bins, density=True, alpha=0.55, label=f"unmarked ({len(agree)})")
+        ax.hist(a, bins=bins, density=True, alpha=0.55, label=f"unmarked ({len(a)})")
         ax.hist(
             wrong,
             bins=bins,
@@ -287,20 +322,58 @@ def plot(results: list[dict[str, Any]], out: Path) -> None:
         ax.set_ylabel("probability")
         ax.legend(fontsize=8)
     ax = axes[2]
-    for field, label in (("random_mark", "logo"), ("random_id", "id")):
-        p = np.sort([t["p"] for r in results for t in r[field]])
+    for field, n, label in (("random_mark", MARK_BITS, "logo"), ("random_id", PAYLOAD_BITS, "id")):
+        p = np.sort([detection_p_value(int(x), n) for x in agree[field]])
         u = (np.arange(1, len(p) + 1) - 0.5) / len(p)
         ax.loglog(u, p, ".", ms=2, label=f"{label} p-values ({len(p)})")
     ax.loglog([1e-5, 1], [1e-5, 1], "k-", lw=0.8, label="uniform")
-    hyp = min(t["hyp"] for r in results for t in r["random_mark"])
-    ax.axhline(1e-6 / hyp, color="r", lw=0.8, ls="--", label=f"threshold 1e-6/{hyp}")
+    ax.axhline(
+        fpr / hypotheses,
+        color="r",
+        lw=0.8,
+        ls="--",
+        label=f"verify's threshold {fpr:g}/{hypotheses}",
+    )
     ax.set_xlabel("expected quantile (uniform)")
-    ax.set_ylabel("empirical p-value")
+    ax.set_ylabel("empirical p-value (binomial tail)")
     ax.set_title("p-values on unmarked meshes")
     ax.legend(fontsize=8)
     fig.tight_layout()
     fig.savefig(out, dpi=110)
     plt.close(fig)
+
+
+def restat(path: Path) -> int:
+    """Recompute the statistics lines of ``null.md`` and redraw ``null.png`` from a saved
+    ``null.json`` (its agreement histograms hold every trial's score)."""
+    data = json.loads(path.read_text(encoding="utf-8"))
+    agree = {
+        field: np.concatenate(
+            [
+                np.repeat(np.arange(len(h)), h)
+                for h in (m[field]["agree_histogram"] for m in data["meshes"])
+            ]
+        )
+        for field in ("random_mark", "random_id", "wrong_mark", "wrong_id")
+    }
+    lines, rows = statistics_lines(agree)
+    md = path.with_name("null.md")
+    text = md.read_text(encoding="utf-8").splitlines()
+    fields = tuple(f"- {r['field']}:" for r in rows)
+    text = [ln for ln in text if not ln.startswith(fields)]
+    at = next(i for i, ln in enumerate(text) if ln.startswith("**Unmarked:"))
+    text[at:at] = [*lines, ""]
+    md.write_text("\n".join(text) + "\n", encoding="utf-8")
+    data["statistics"] = rows
+    path.write_text(json.dumps(data, indent=1) + "\n", encoding="utf-8")
+    plot(
+        agree,
+        data.get("hypotheses_min", HYPOTHESES_UNMARKED),
+        data.get("fpr", 1e-6),
+        path.with_name("null.png"),
+    )
+    print("\n".join(lines))
+    return 0
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -321,7 +394,15 @@ def main(argv: list[str] | None = None) -> int:
         help="geometry images are kept here between runs ('' for none)",
     )
     ap.add_argument("--out", type=Path, default=REPO_ROOT / "docs" / "null")
+    ap.add_argument(
+        "--restat",
+        type=Path,
+        metavar="NULL_JSON",
+        help="only recompute the statistics and the plot of a saved run",
+    )
     args = ap.parse_args(argv)
+    if args.restat is not None:
+        return restat(args.restat)
     paths = [Path(p) for p in args.meshes] or sorted(args.folder.glob("*.ply"))
     tasks = [
         {
@@ -408,31 +489,9 @@ def main(argv: list[str] | None = None) -> int:
         ]
         say(f"| {r['mesh']} | " + " | ".join(cells) + " |")
     say("")
-    stats_rows = []
-    for field, n in (
-        ("random_mark", MARK_BITS),
-        ("random_id", PAYLOAD_BITS),
-        ("wrong_mark", MARK_BITS),
-        ("wrong_id", PAYLOAD_BITS),
-    ):
-        agree = np.array([t["agree"] for r in results for t in r[field]])
-        stat, dof, p = chi_square(agree, n)
-        stats_rows.append(
-            {
-                "field": field,
-                "trials": len(agree),
-                "mean": float(agree.mean()),
-                "var": float(agree.var()),
-                "chi2": stat,
-                "dof": dof,
-                "p": p,
-            }
-        )
-        say(
-            f"- {field}: {len(agree)} trials, agreement mean {agree.mean():.2f} (binomial "
-            f"{n / 2:.0f}), variance {agree.var():.1f} (binomial {n / 4:.0f}), chi-square "
-            f"{stat:.1f} on {dof} dof, p = {p:.3f}"
-        )
+    agree = agreements(results)
+    stat_lines, stats_rows = statistics_lines(agree)
+    lines += stat_lines
     trials = totals["rand"] + totals["right"]
     detections = totals["rand_det"] + totals["right_det"]
     say("")
@@ -449,12 +508,15 @@ def main(argv: list[str] | None = None) -> int:
     print(text)
     args.out.mkdir(parents=True, exist_ok=True)
     (args.out / "null.md").write_text(text + "\n", encoding="utf-8")
-    plot(results, args.out / "null.png")
+    hyp_min = min(t["hyp"] for r in results for t in r["random_mark"])
+    plot(agree, hyp_min, args.fpr, args.out / "null.png")
     summary = {
         "command": " ".join(sys.argv),
         "machine": machine_info("numpy", "scipy", "trimesh", "PyWavelets", "reedsolo"),
         "totals": totals,
         "statistics": stats_rows,
+        "fpr": args.fpr,
+        "hypotheses_min": hyp_min,
         "wall_seconds": wall,
         "meshes": [
             {
