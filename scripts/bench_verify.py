@@ -36,7 +36,9 @@ With ``--reorder``, the same measurements on a copy of the folder with every fil
 and face order shuffled (``meshwm.attacks.reorder``): files re-exported by other tools lose
 the writer's order.
 
-Timings are wall clock on a shared machine; the 1-minute load average before each
+Each row is run ``--repeat`` times (default 3) and the run of median time is reported (all
+times are in the JSON); a Dask cluster only exists while its own row runs.  Timings are wall
+clock on a possibly shared machine; the 1-minute load average before each
 measurement is recorded next to it.  Nothing is asserted: the exit code is 1 only if an id
 is wrong or missing.
 
@@ -329,13 +331,19 @@ def measure(
     n_files: int,
     files: dict[str, str] | None,
     worker_cpu: Callable[[], float] | None = None,
+    repeat: int = 1,
 ) -> dict[str, Any]:
     load = _loadavg()
-    c0 = _cpu_seconds() + (worker_cpu() if worker_cpu else 0.0)
-    t0 = time.perf_counter()
-    rows = run()
-    seconds = time.perf_counter() - t0
-    cpu = _cpu_seconds() + (worker_cpu() if worker_cpu else 0.0) - c0
+    runs = []
+    for _ in range(max(1, repeat)):
+        c0 = _cpu_seconds() + (worker_cpu() if worker_cpu else 0.0)
+        t0 = time.perf_counter()
+        rows = run()
+        seconds = time.perf_counter() - t0
+        cpu = _cpu_seconds() + (worker_cpu() if worker_cpu else 0.0) - c0
+        runs.append((seconds, cpu, rows))
+    # The run of median time (the machine may be shared; one slow run is not the code).
+    seconds, cpu, rows = sorted(runs, key=lambda r: r[0])[len(runs) // 2]
     out: dict[str, Any] = {
         "name": name,
         "files": n_files,
@@ -346,11 +354,13 @@ def measure(
         "cpu_seconds": cpu,
         "assets_per_cpu_s": n_files / cpu if cpu > 0 else None,
         "loadavg_1min_before": load,
+        "seconds_all_runs": [r[0] for r in runs],
     }
     if rows is not None and files is not None:
         out.update(score(rows, files))
         out["file_seconds"] = {Path(r["path"]).name: r["seconds"] for r in rows}
-    print(f"  {name}: {seconds:.1f} s", file=sys.stderr, flush=True)
+    shown = ", ".join(f"{r[0]:.1f}" for r in runs)
+    print(f"  {name}: {seconds:.1f} s (runs: {shown})", file=sys.stderr, flush=True)
     return out
 
 
@@ -380,9 +390,19 @@ def run_cli(folder: Path, jobs: int) -> tuple[list[dict[str, Any]], dict[str, An
 
 
 def measure_folder(
-    folder: Path, files: dict[str, str], dask_clients: Sequence[tuple[str, Any]], label: str
+    folder: Path,
+    files: dict[str, str],
+    label: str,
+    dask_variants: Sequence[tuple[str, bool]],
+    startup: dict[str, float],
+    dask_env: dict[str, Any],
+    repeat: int,
 ) -> list[dict[str, Any]]:
-    """The rows (load only, jobs 1, jobs 2, each Dask cluster, CLI) on one folder."""
+    """The rows (load only, jobs 1, jobs 2, each Dask cluster, CLI) on one folder.
+
+    Each Dask cluster runs only while its own row is measured, so its idle workers do not
+    share the cores with the other rows.
+    """
     paths = [folder / name for name in sorted(files)]
     n = len(paths)
     check = Check(key=KEY, params=WatermarkParams(), any_id=True)
@@ -393,28 +413,38 @@ def measure_folder(
         for p in paths:
             read_mesh(p)
 
-    rows = [measure(f"{label}load only", 1, load_only, n, None)]
-    rows.append(
-        measure(
-            f"{label}verify --jobs 1", 1, lambda: list(run_local(paths, check, jobs=1)), n, files
-        )
-    )
-    rows.append(
-        measure(
-            f"{label}verify --jobs 2", 2, lambda: list(run_local(paths, check, jobs=2)), n, files
-        )
-    )
-    for name, client in dask_clients:
-        rows.append(
-            measure(
-                f"{label}{name}",
-                2,
-                lambda client=client: list(run_dask(paths, check, scheduler=client)),
-                n,
-                files,
-                worker_cpu=_dask_worker_cpu(client),
+    def local(jobs: int) -> Callable[[], list[dict[str, Any]]]:
+        return lambda: list(run_local(paths, check, jobs=jobs))
+
+    rows = [measure(f"{label}load only", 1, load_only, n, None, repeat=repeat)]
+    rows.append(measure(f"{label}verify --jobs 1", 1, local(1), n, files, repeat=repeat))
+    rows.append(measure(f"{label}verify --jobs 2", 2, local(2), n, files, repeat=repeat))
+    for name, trim in dask_variants:
+        t0 = time.perf_counter()
+        client, cluster = start_cluster(trim)
+        startup[label + name] = time.perf_counter() - t0
+        try:
+            wenv = worker_env(client)
+            dask_env[label + name] = wenv
+            shown = sorted({json.dumps(e, sort_keys=True) for e in wenv.values()})
+            print(
+                f"{label}{name} start-up: {startup[label + name]:.2f} s (not timed); worker "
+                "env: " + "; ".join(shown)
             )
-        )
+            rows.append(
+                measure(
+                    f"{label}{name}",
+                    2,
+                    lambda client=client: list(run_dask(paths, check, scheduler=client)),
+                    n,
+                    files,
+                    worker_cpu=_dask_worker_cpu(client),
+                    repeat=repeat,
+                )
+            )
+        finally:
+            client.close()
+            cluster.close()
     cli_info: dict[str, Any] = {}
 
     def cli() -> list[dict[str, Any]]:
@@ -422,7 +452,7 @@ def measure_folder(
         cli_info.update(info)
         return got
 
-    row = measure(f"{label}CLI verify --jobs 2 --jsonl", 2, cli, n, files)
+    row = measure(f"{label}CLI verify --jobs 2 --jsonl", 2, cli, n, files, repeat=repeat)
     row["cli"] = cli_info
     if len(row["file_seconds"]) != n:
         row["note"] = f"CLI printed {len(row['file_seconds'])} rows for {n} files"
@@ -581,6 +611,12 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--breakdown", type=int, default=20, help="files in the stage breakdown")
     parser.add_argument("--no-dask", action="store_true", help="skip the Dask LocalCluster rows")
     parser.add_argument(
+        "--repeat",
+        type=int,
+        default=3,
+        help="runs per row; the one of median time is reported (default 3)",
+    )
+    parser.add_argument(
         "--reorder", action="store_true", help="also a copy with vertex and face order shuffled"
     )
     parser.add_argument("--json", type=Path, help="write everything to this JSON file")
@@ -626,31 +662,13 @@ def main(argv: list[str] | None = None) -> int:
         print(f"reordered copy: {rfolder} ({note})")
         folders.append(("reordered: ", rfolder, rgen))
 
-    clusters: list[tuple[str, Any, Any]] = []
     startup: dict[str, float] = {}
     dask_env: dict[str, Any] = {}
     results: dict[str, Any] = {}
-    try:
-        if not args.no_dask:
-            for name, trim in DASK_VARIANTS:
-                t0 = time.perf_counter()
-                client, cluster = start_cluster(trim)
-                clusters.append((name, client, cluster))
-                startup[name] = time.perf_counter() - t0
-                wenv = worker_env(client)
-                dask_env[name] = wenv
-                shown = sorted({json.dumps(e, sort_keys=True) for e in wenv.values()})
-                print(
-                    f"{name} start-up: {startup[name]:.2f} s (not timed); worker env: "
-                    + "; ".join(shown)
-                )
-        for label, folder, _ in folders:
-            rows = measure_folder(folder, files, [(n, c) for n, c, _ in clusters], label)
-            results[label or "plain"] = rows
-    finally:
-        for _, client, cluster in clusters:
-            client.close()
-            cluster.close()
+    variants = [] if args.no_dask else list(DASK_VARIANTS)
+    for label, folder, _ in folders:
+        rows = measure_folder(folder, files, label, variants, startup, dask_env, args.repeat)
+        results[label or "plain"] = rows
 
     print()
     all_rows = [r for rows in results.values() for r in rows]
