@@ -147,7 +147,7 @@ class _Lookup:
         # Stable: fast on the nearly sorted keys of a file as the embedder wrote it.
         order = np.argsort(keys, kind="stable")
         self.keys, self.third, self.face = keys[order], third[order], face[order]
-        self.slot = order // len(faces)  # corner of the edge's first vertex in its face
+        self.order = order  # position in [a->b of every face, then b->c, then c->a]
         # A directed edge used twice means the mesh is not an oriented manifold there: such
         # edges never answer, so a propagation through them fails verification.
         dup = np.zeros(len(order), dtype=bool)
@@ -1244,8 +1244,9 @@ def drop_irregular(
     # Fans: the corner of u in the face of u -> w is joined to the corner of u in the face
     # across that edge (the one with w -> u, where u follows w); a vertex whose corners fall
     # into more than one group has more than one fan.
-    corner = lookup.slot * m + lookup.face  # corner ids: slot * m + face
-    across = ((lookup.slot[pos] + 1) % 3) * m + lookup.face[pos]
+    slot = lookup.order // m  # corner of each edge's first vertex in its face
+    corner = slot * m + lookup.face  # corner ids: slot * m + face
+    across = ((slot[pos] + 1) % 3) * m + lookup.face[pos]
     a, b = corner[back], across[back]
     graph = sp.coo_matrix((np.ones(len(a)), (a, b)), shape=(3 * m, 3 * m)).tocsr()
     _, group = connected_components(graph, directed=False)
