@@ -55,6 +55,11 @@ border) whose public bit is 1 have their diagonal flipped
    a sample claimed by two components, or another N, drops the smaller one.  Components and
    pieces too small or without a match are left out.
 
+A welded mesh (close vertices merged, e.g. by MeshLab's ``meshing_merge_close_vertices``)
+can have grid samples merged where the remesh crowded them; :func:`drop_irregular` removes the
+faces around every vertex no meshwm grid has, so each merge reads as a small hole (the
+extraction in :mod:`meshwm.embed` tries it when the mesh does not read as given or cleaned).
+
 Connectivity fixes the grid completely, including which of the eight symmetries of the square
 is meant; the geometry is only used to spread the seeds (and to fill ``gim``), never to decide
 a position, so any pose, scale or vertex order reads the same.
