@@ -192,6 +192,38 @@ class _Lookup:
         return pos, hit
 
 
+class _Fans(NamedTuple):
+    """Per directed edge of a lookup's sorted table, and per vertex: what the fans look like."""
+
+    u: NDArray[np.int64]  # first vertex of each directed edge
+    v: NDArray[np.int64]  # second vertex
+    back_pos: NDArray[np.int64]  # position of the reverse edge v -> u (where ``back``)
+    back: NDArray[np.bool_]  # whether v -> u exists
+    first: NDArray[np.bool_]  # first occurrence of each directed edge
+    valence: NDArray[np.int64]  # faces per vertex
+    closed: NDArray[np.bool_]  # every directed edge at the vertex has its reverse
+    cls: NDArray[np.int8]  # 0: E (closed, 7 or 8 faces), 1: O (closed, 4 or 5), -1: other
+
+
+def _fans(lookup: _Lookup, faces: NDArray[np.int64]) -> _Fans:
+    n = lookup.n_vertices
+    keys = lookup.keys
+    u, v = np.divmod(keys, n)
+    back_pos, back = lookup.find(v, u)
+    closed = np.ones(n, dtype=bool)
+    closed[u[~back]] = False
+    closed[v[~back]] = False
+    first = np.ones(len(keys), dtype=bool)
+    first[1:] = keys[1:] != keys[:-1]
+    val = np.bincount(faces.ravel(), minlength=n)
+    # Class of each vertex: 0 (E, i + j even: valence 8, or 7 at a flipped code cell),
+    # 1 (O: 4, or 5), -1 (open fan or another valence: not used by the local reading).
+    cls = np.full(n, -1, dtype=np.int8)
+    cls[closed & ((val == 7) | (val == 8))] = 0
+    cls[closed & ((val == 4) | (val == 5))] = 1
+    return _Fans(u, v, back_pos, back, first, val, closed, cls)
+
+
 class _Mesh:
     """What the reader needs of a mesh: lookups both windings, vertex classes, components."""
 
@@ -201,28 +233,16 @@ class _Mesh:
         self.lookup = _Lookup(n, faces)
         self._reversed: _Lookup | None = None
         self._depth: NDArray[np.int64] | None = None
-        self.valence = np.bincount(faces.ravel(), minlength=n)
         # A vertex is interior (closed fan) when every directed edge at it has its reverse;
         # only there is the face count the valence of the 4-8 grid.
-        keys = self.lookup.keys
-        u, v = np.divmod(keys, n)
-        lone = ~self.lookup.find(v, u)[1]
-        closed = np.ones(n, dtype=bool)
-        closed[u[lone]] = False
-        closed[v[lone]] = False
+        fans = _fans(self.lookup, faces)
+        self.valence, self.cls = fans.valence, fans.cls
         val = self.valence
-        # Class of each vertex: 0 (E, i + j even: valence 8, or 7 at a flipped code cell),
-        # 1 (O: 4, or 5), -1 (open fan or another valence: not used by the local reading).
-        self.cls = np.full(n, -1, dtype=np.int8)
-        self.cls[closed & ((val == 7) | (val == 8))] = 0
-        self.cls[closed & ((val == 4) | (val == 5))] = 1
         # Plain fans (see _sound): closed, no neighbour twice (a repeated directed edge out of
         # the vertex), and 8 faces (row 0, for samples with i + j even) or 4 (row 1); row 2:
         # vertices of one face (see _border_phase).
-        first = np.ones(len(keys), dtype=bool)
-        first[1:] = keys[1:] != keys[:-1]
-        out = np.bincount(u[first], minlength=n)
-        simple = closed & (out == val)
+        out = np.bincount(fans.u[fans.first], minlength=n)
+        simple = fans.closed & (out == val)
         self.plain = np.stack([simple & (val == 8), simple & (val == 4), val == 1])
         graph = sp.csr_matrix(
             (np.ones(2 * len(faces)), (faces[:, :2].ravel(), faces[:, 1:].ravel())),
@@ -1216,25 +1236,20 @@ def drop_irregular(
     n, m = len(v), len(f)
     lookup = _Lookup(n, f)
     keys = lookup.keys
-    u, w = np.divmod(keys, n)
+    fans = _fans(lookup, f)
+    u, w, pos, back, first = fans.u, fans.v, fans.back_pos, fans.back, fans.first
+    closed, valence = fans.closed, fans.valence
     irregular = np.zeros(n, dtype=bool)
     dup = np.zeros(len(keys), dtype=bool)
     dup[1:] = keys[1:] == keys[:-1]
     irregular[u[dup]] = irregular[w[dup]] = True
-    pos, back = lookup.find(w, u)
-    closed = np.ones(n, dtype=bool)
-    closed[u[~back]] = closed[w[~back]] = False
-    valence = np.bincount(f.ravel(), minlength=n)
     irregular |= closed & ~np.isin(valence, (4, 5, 7, 8))
     # Neighbour classes: in the 4-8 grid an E sample (8 faces, or 7 at a flipped code cell)
     # has at most 4 O and 4 E neighbours (3 at a flipped cell), an O sample (4 faces, or 5)
     # only E neighbours (and its flipped-diagonal O partner).  Two samples merged into one
     # vertex can keep a plausible face count but not these (neighbours whose class is unknown,
     # open or irregular, are not counted).
-    is_e = closed & ((valence == 7) | (valence == 8))
-    is_o = closed & ((valence == 4) | (valence == 5))
-    first = np.ones(len(keys), dtype=bool)
-    first[1:] = keys[1:] != keys[:-1]
+    is_e, is_o = fans.cls == 0, fans.cls == 1
     n_e = np.bincount(u[first], weights=is_e[w[first]], minlength=n)
     n_o = np.bincount(u[first], weights=is_o[w[first]], minlength=n)
     irregular |= is_e & ((n_o > 4) | (n_e > valence - 4))
@@ -1257,8 +1272,7 @@ def drop_irregular(
     _, group = connected_components(graph, directed=False)
     owner = f.T.ravel()  # vertex of corner slot * m + face
     pairs = np.unique(owner.astype(np.int64) * (3 * m) + group)
-    fans = np.bincount(pairs // (3 * m), minlength=n)
-    irregular |= fans > 1
+    irregular |= np.bincount(pairs // (3 * m), minlength=n) > 1
     # A merge also leaves plausible-looking but wrong faces next to the irregular vertices:
     # drop the faces of their neighbours too (``rings`` rings).
     for _ in range(rings):
