@@ -22,6 +22,7 @@ from typing import Any
 
 import numpy as np
 
+from ._malloc import keep_freed_memory
 from ._validate import MeshError
 from .embed import extract, extract_id
 from .grid import GridError
@@ -144,13 +145,18 @@ def verify_file(path: str | os.PathLike, check: Check) -> dict[str, Any]:
 
 def _verify_indexed(args: tuple[int, str, Check]) -> tuple[int, dict[str, Any]]:
     k, path, check = args
+    keep_freed_memory()
     return k, verify_file(path, check)
 
 
 def run_local(
     paths: Sequence[str | os.PathLike], check: Check, *, jobs: int = 1
 ) -> Iterator[dict[str, Any]]:
-    """Rows in path order, as they complete in order; ``jobs`` worker processes (1: in-process)."""
+    """Rows in path order, as they complete in order; ``jobs`` worker processes (1: in-process).
+
+    The processes that check files keep freed memory for reuse (glibc's malloc thresholds are
+    raised, see :mod:`meshwm._malloc`): this one too when ``jobs`` is 1.
+    """
     items = [(k, os.fspath(p), check) for k, p in enumerate(paths)]
     if jobs <= 1 or len(items) <= 1:
         for item in items:
@@ -161,6 +167,21 @@ def run_local(
             yield row
 
 
+def _verify_on_worker(paths: list[str], check: Check) -> list[dict[str, Any]]:
+    keep_freed_memory()
+    return [verify_file(p, check) for p in paths]
+
+
+#: Files per Dask task at most: a task costs the cluster a few milliseconds of its own
+#: (scheduling, messages), a tenth of a file's check at N = 256.
+DASK_CHUNK = 16
+
+
+def _chunk_size(n_files: int, n_workers: int) -> int:
+    """Files per Dask task: about eight tasks per worker (for balance), 1 to ``DASK_CHUNK``."""
+    return max(1, min(DASK_CHUNK, n_files // (8 * max(n_workers, 1))))
+
+
 def run_dask(
     paths: Sequence[str | os.PathLike], check: Check, *, scheduler: Any
 ) -> Iterator[dict[str, Any]]:
@@ -168,7 +189,10 @@ def run_dask(
 
     Needs the optional ``dask`` extra (``pip install 'meshwm[dask]'``); every worker needs
     meshwm installed and read access to the paths (a shared file system or object store
-    mounted at the same place).
+    mounted at the same place).  Files go to the workers in small groups (about eight per
+    worker, at most :data:`DASK_CHUNK` files each), since every task costs the cluster a few
+    milliseconds.  Each worker's malloc thresholds are raised as in :func:`run_local`
+    (which also undoes the 64 KiB trim threshold Dask's nanny sets).
     """
     try:
         from distributed import Client
@@ -178,11 +202,13 @@ def run_dask(
         ) from exc
     client = scheduler if isinstance(scheduler, Client) else Client(scheduler)
     try:
-        futures = client.map(
-            verify_file, [os.fspath(p) for p in paths], check=check, pure=False, retries=1
-        )
+        names = [os.fspath(p) for p in paths]
+        workers = len(client.scheduler_info(n_workers=-1).get("workers", {}))
+        size = _chunk_size(len(names), workers)
+        chunks = [names[k : k + size] for k in range(0, len(names), size)]
+        futures = client.map(_verify_on_worker, chunks, check=check, pure=False, retries=1)
         for fut in futures:
-            yield fut.result()
+            yield from fut.result()
     finally:
         if client is not scheduler:
             client.close()

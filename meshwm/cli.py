@@ -17,6 +17,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from meshwm import __version__
+from meshwm._malloc import keep_freed_memory
 from meshwm._validate import DEFAULT_MAX_FACES, check_square_pow2
 from meshwm.attacks import ATTACK_PARAMS, ATTACKS, apply_attack
 from meshwm.batch import Check, expand_paths, progress_bar, run_dask, run_local, summarise
@@ -928,6 +929,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     int
         0 on success, 2 on any error (one line on stderr).
     """
+    keep_freed_memory()  # big temporaries reuse memory instead of faulting pages in
     parser = _build_parser()
     try:
         args = parser.parse_args(argv)

@@ -9,7 +9,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from meshwm.batch import Check, expand_paths, run_local, summarise, verify_file
+from meshwm.batch import (
+    DASK_CHUNK,
+    Check,
+    _chunk_size,
+    expand_paths,
+    run_local,
+    summarise,
+    verify_file,
+)
 from meshwm.cli import main
 from meshwm.mark import default_mark
 from meshwm.params import WatermarkParams
@@ -181,3 +189,23 @@ def test_dask_local_cluster_gives_the_same_rows(library, capsys):
     assert strip == [{k: v for k, v in r.items() if k != "seconds"} for r in local]
     cli_rows = _lines(capsys)
     assert code == 2 and cli_rows[-1]["summary"]["present"] == 1
+    # Many files go to the workers in groups; the rows still come back in path order.
+    many = [paths[k % len(paths)] for k in range(3 * 8 * 2 + 1)]
+    assert _chunk_size(len(many), 2) == 3
+    with (
+        distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True) as cluster,
+        distributed.Client(cluster) as client,
+    ):
+        grouped = list(run_dask(many, check, scheduler=client))
+    assert [r["path"] for r in grouped] == [str(p) for p in many]
+    want = {r["path"]: r for r in strip}
+    assert [{k: v for k, v in r.items() if k != "seconds"} for r in grouped] == [
+        want[str(p)] for p in many
+    ]
+
+
+def test_dask_chunks_keep_every_worker_busy():
+    assert _chunk_size(10, 2) == 1
+    assert _chunk_size(200, 2) == 12
+    assert _chunk_size(100_000, 2) == DASK_CHUNK
+    assert _chunk_size(5, 0) == 1

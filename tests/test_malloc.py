@@ -1,0 +1,67 @@
+"""Tests for :mod:`meshwm._malloc`: freed memory kept for reuse in meshwm's own processes."""
+
+from __future__ import annotations
+
+import platform
+import subprocess
+import sys
+
+import pytest
+
+from meshwm import _malloc
+
+glibc = pytest.mark.skipif(platform.libc_ver()[0] != "glibc", reason="mallopt is glibc's")
+
+# An 8 MB array, as the decoder makes hundreds of: where it came from, and whether its memory
+# stays in the process once freed (glibc's mallinfo2: mapped bytes, free bytes in the heap).
+_PROBE = """
+import ctypes, sys
+import numpy as np
+class Info(ctypes.Structure):
+    _fields_ = [(k, ctypes.c_size_t) for k in (
+        "arena", "ordblks", "smblks", "hblks", "hblkhd", "usmblks", "fsmblks", "uordblks",
+        "fordblks", "keepcost")]
+libc = ctypes.CDLL("libc.so.6")
+libc.mallinfo2.restype = Info
+if sys.argv[1] == "tuned":
+    from meshwm._malloc import keep_freed_memory
+    assert keep_freed_memory()
+a = np.ones(1 << 20)
+mapped = libc.mallinfo2().hblkhd
+del a
+print(mapped, libc.mallinfo2().fordblks)
+"""
+
+
+def _probe(mode: str) -> tuple[int, int]:
+    out = subprocess.run(
+        [sys.executable, "-c", _PROBE, mode], capture_output=True, text=True, check=True
+    )
+    mapped, free = out.stdout.split()
+    return int(mapped), int(free)
+
+
+@glibc
+def test_big_arrays_come_from_the_heap_and_stay_for_reuse():
+    """glibc's defaults map an 8 MB array on its own and unmap it when freed (the next one
+    faults its pages in again); tuned, it comes from the heap and its memory stays there."""
+    try:
+        plain = _probe("plain")
+    except subprocess.CalledProcessError:
+        pytest.skip("no mallinfo2 (glibc < 2.33)")
+    tuned = _probe("tuned")
+    eight = 8 << 20
+    assert plain[0] >= eight and plain[1] < eight
+    assert tuned[0] < eight and tuned[1] >= eight
+
+
+@glibc
+def test_keep_freed_memory_is_idempotent():
+    assert _malloc.keep_freed_memory() is True
+    assert _malloc.keep_freed_memory() is True
+
+
+def test_importing_meshwm_does_not_tune_malloc():
+    code = "import meshwm, meshwm.embed, meshwm.batch, meshwm._malloc as m; print(m._done)"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "False"
