@@ -1347,6 +1347,11 @@ def _run_table(n: int) -> _RunTable:
     return out
 
 
+@functools.lru_cache(maxsize=8)
+def _n_flipped(n: int) -> int:
+    return len(flipped_cells(n))
+
+
 def _pair_types(f: NDArray[np.int64]) -> NDArray[np.int8]:
     """For each face k, the cell type of faces (k, k+1) if they are one grid cell.
 
@@ -1432,7 +1437,7 @@ def _read_in_order(
     decides a sample.  Any doubt returns None.
     """
     m = len(f)
-    if n < _MIN_SIZE or len(flipped_cells(n)) < _SEEDS or m < 2 * (n - 1) ** 2 - 8 * n:
+    if n < _MIN_SIZE or _n_flipped(n) < _SEEDS or m < 2 * (n - 1) ** 2 - 8 * n:
         return None
     runs = _run_table(n)
     starts = _run_starts(f, n, runs)

@@ -643,6 +643,8 @@ class ReceivedMesh:
 
     def _sampled(self, points: NDArray[np.float64]) -> NDArray[np.float64]:
         index = self._index
+        if index.min() >= 0:  # a complete grid
+            return points[index]
         return np.where((index >= 0)[..., None], points[np.maximum(index, 0)], np.nan)
 
     def _prepare(self, gim: NDArray[np.float64]) -> PreparedGim:
