@@ -11,6 +11,7 @@ import pytest
 
 from meshwm.batch import (
     DASK_CHUNK,
+    DASK_TASKS_PER_WORKER,
     Check,
     _chunk_size,
     expand_paths,
@@ -190,8 +191,8 @@ def test_dask_local_cluster_gives_the_same_rows(library, capsys):
     cli_rows = _lines(capsys)
     assert code == 2 and cli_rows[-1]["summary"]["present"] == 1
     # Many files go to the workers in groups; the rows still come back in path order.
-    many = [paths[k % len(paths)] for k in range(3 * 8 * 2 + 1)]
-    assert _chunk_size(len(many), 2) == 3
+    many = [paths[k % len(paths)] for k in range(2 * DASK_TASKS_PER_WORKER * 2 + 1)]
+    assert _chunk_size(len(many), 2) == 2
     with (
         distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True) as cluster,
         distributed.Client(cluster) as client,
@@ -206,6 +207,6 @@ def test_dask_local_cluster_gives_the_same_rows(library, capsys):
 
 def test_dask_chunks_keep_every_worker_busy():
     assert _chunk_size(10, 2) == 1
-    assert _chunk_size(200, 2) == 12
+    assert _chunk_size(200, 2) == 3
     assert _chunk_size(100_000, 2) == DASK_CHUNK
     assert _chunk_size(5, 0) == 1
