@@ -1603,8 +1603,11 @@ def recover_grid(vertices: NDArray, faces: NDArray, *, size: int | None = None) 
     if size is not None:
         in_order = [check_square_pow2(size, name="size", low=_MIN_SIZE, high=_MAX_SIZE)]
     else:
-        n_faces = _size_from_faces(len(f))
-        in_order = [n_faces, n_faces // 2] if n_faces > _MIN_SIZE else [n_faces]
+        try:  # every face counted: the grid comes first, other components after it
+            n_faces = _size_from_faces(len(f))
+            in_order = [n_faces, n_faces // 2] if n_faces > _MIN_SIZE else [n_faces]
+        except GridError:  # more faces than any grid: the components decide (below)
+            in_order = []
     for n_try in in_order:
         fast = _read_in_order(v, f, n_try, size)
         if fast is not None:

@@ -724,3 +724,22 @@ def test_fast_path_declines_what_it_cannot_verify(welded, name, monkeypatch):
             assert got is None, label
         else:
             _assert_same_reading(got, want)
+
+
+def test_many_faces_in_other_components_still_read(monkeypatch):
+    """More faces in all than the largest grid has (here: with the largest grid made 64):
+    the size comes from the largest component, fast path or not."""
+    monkeypatch.setattr(grid_module, "_MAX_SIZE", 64)
+    n = 32
+    gim = _synthetic_gim(n)
+    v, f = geometry_image_to_mesh(gim)
+    k = 2 * 63**2 + 1 - len(f)  # loose triangles, so that the total exceeds 2 * 63^2
+    rng = np.random.default_rng(3)
+    soup_v = rng.normal(size=(3 * k, 3)) + 10.0
+    soup_f = np.arange(3 * k).reshape(k, 3) + len(v)
+    both_v, both_f = np.concatenate([v, soup_v]), np.concatenate([f, soup_f])
+    assert len(both_f) > 2 * 63**2
+    grid = recover_grid(both_v, both_f)
+    assert grid.n == n and grid.coverage == 1.0
+    assert_array_equal(grid.gim, gim)
+    _assert_same_reading(grid, _order_free(monkeypatch, both_v, both_f))
