@@ -17,9 +17,10 @@ verify --jobs 2
 dask
     ``meshwm.batch.run_dask`` on a ``LocalCluster(n_workers=2, threads_per_worker=1)``; the
     cluster's start-up (with each worker importing meshwm) is reported separately, not
-    timed.  Twice: as Dask starts its workers
-    by default, and without the ``MALLOC_TRIM_THRESHOLD_=65536`` Dask sets in their
-    environment (it makes every verification markedly slower: page faults, system time).
+    timed.  Twice: as Dask starts its workers by default, and without the
+    ``MALLOC_TRIM_THRESHOLD_=65536`` Dask sets in their environment (which once made every
+    verification markedly slower, page faults and system time; meshwm's tasks now raise the
+    thresholds themselves, see ``meshwm/_malloc.py``, and the two rows measure alike).
 CLI
     ``python -m meshwm verify DIR --key K --any-id --jobs 2 --jsonl`` end to end (a
     subprocess: interpreter start-up, imports and the pool included).
@@ -258,8 +259,8 @@ def start_cluster(malloc_trim: bool) -> tuple[Any, Any]:
     later (the CLI row) would inherit it.  So the environment is put back once the workers
     are up.  With ``malloc_trim`` False the workers start without that variable (a ``None``
     value in the config unsets it): glibc then keeps its dynamic mmap threshold, instead of
-    mapping and unmapping every array over 128 KiB, which costs a verification about ten
-    times the page faults.
+    mapping and unmapping every array over 128 KiB (meshwm's tasks now raise the thresholds
+    with ``mallopt`` either way).
     """
     import dask
     from distributed import Client, LocalCluster
