@@ -1051,10 +1051,16 @@ def _walk(
 
 
 def _explained(
-    index: NDArray[np.int64], table: _GridTable, lookup: _Lookup
+    index: NDArray[np.int64],
+    table: _GridTable,
+    lookup: _Lookup,
+    triangles: NDArray[np.int64] | None = None,
 ) -> NDArray[np.int64] | None:
-    """The faces that are grid triangles of a reading (None if one is explained twice)."""
-    t = index[table.triangles]
+    """The faces that are grid triangles of a reading (None if one is explained twice).
+
+    ``triangles``: only these grid triangles (default all of ``table``'s).
+    """
+    t = index[table.triangles if triangles is None else triangles]
     live = (t[:, 0] != t[:, 1]) & (t[:, 1] != t[:, 2]) & (t[:, 0] != t[:, 2]) & (t.min(axis=1) >= 0)
     third, face = lookup(t[live, 0], t[live, 1])
     found = face[(third == t[live, 2]) & (face >= 0)]
@@ -1464,14 +1470,10 @@ def _read_in_order(
         if not _border_phase(index, table, lookup, levels):
             return None
     # Every face between the runs one border triangle, each once, up to where the grid ends.
-    img = index[runs.border_faces]
-    live = (img.min(axis=1) >= 0) & (img[:, 0] != img[:, 1]) & (img[:, 1] != img[:, 2])
-    live &= img[:, 0] != img[:, 2]
-    third, face = lookup(img[live, 0], img[live, 1])
-    found = face[(third == img[live, 2]) & (face >= 0)]
-    hit = np.bincount(found, minlength=len(rest))
-    if np.any(hit > 1):
+    found = _explained(index, table, lookup, runs.border_faces)
+    if found is None:
         return None
+    hit = np.bincount(found, minlength=len(rest))
     end = int(rest[np.flatnonzero(hit)[-1]]) + 1 if np.any(hit) else int(starts[-1]) + seg
     if end < int(starts[-1]) + seg or not np.all(hit[rest < end]):
         return None
