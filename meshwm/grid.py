@@ -1216,6 +1216,27 @@ def _read_component(
     return _Reading(n, index, len(found), hypotheses, seeded)
 
 
+def _read_components(mesh: _Mesh, codes: list[_Code], min_faces: int) -> list[tuple[int, _Reading]]:
+    """Each component with ``min_faces`` faces and a seed cell, read on its own, largest first
+    (ties: more vertices, then more seed cells: order-free keys)."""
+    comp_faces = np.bincount(mesh.label[mesh.faces[:, 0]], minlength=mesh.n_components)
+    comp_vertices = np.bincount(mesh.label, minlength=mesh.n_components)
+    cells = _signature_seeds(mesh)
+    cell_label = mesh.label[cells[:, 0]]
+    seeds_in = np.bincount(cell_label, minlength=mesh.n_components)
+    comps = [
+        c
+        for c in np.lexsort((-seeds_in, -comp_vertices, -comp_faces)).tolist()
+        if comp_faces[c] >= min_faces and seeds_in[c]
+    ]
+    out = []
+    for c in comps:
+        mine = cells[cell_label == c]
+        first = _choose_seeds(mesh, mine, _SEEDS)
+        out.append((c, _read_component(mesh, mine, first, codes, min_faces)))
+    return out
+
+
 # --------------------------------------------------------------------------------------------
 # welded meshes
 
@@ -1504,18 +1525,10 @@ def _read_in_order(
         if comp_faces.max() >= end or comp_vertices.max() >= grid_vertices:
             return None
         codes = [_code(k) for k in sizes]
-        min_faces = 8 * min(c.min_bits for c in codes)
-        cells = _signature_seeds(other)
-        cell_label = other.label[cells[:, 0]]
-        for c in np.unique(cell_label).tolist():
-            if comp_faces[c] < min_faces:
-                continue
-            mine = cells[cell_label == c]
-            chosen = _choose_seeds(other, mine, _SEEDS)
-            reading = _read_component(other, mine, chosen, codes, min_faces)
-            if reading.index is not None:
-                return None
-            hypotheses += reading.hypotheses
+        readings = _read_components(other, codes, 8 * min(c.min_bits for c in codes))
+        if any(reading.index is not None for _, reading in readings):
+            return None
+        hypotheses += sum(reading.hypotheses for _, reading in readings)
     _fill_fold_tips(index, table)
     index = index.reshape(n, n)
     return RecoveredGrid(n, index, v[index], hypotheses, 1.0, 1)
@@ -1624,23 +1637,10 @@ def recover_grid(vertices: NDArray, faces: NDArray, *, size: int | None = None) 
     n0 = sizes[0]
     codes = [_code(n) for n in sizes]
     min_faces = 8 * min(c.min_bits for c in codes)
-    face_label = mesh.label[f[:, 0]]
-    comp_faces = np.bincount(face_label, minlength=mesh.n_components)
-    comp_vertices = np.bincount(mesh.label, minlength=mesh.n_components)
-    cells = _signature_seeds(mesh)
-    cell_label = mesh.label[cells[:, 0]]
-    # Components, largest first (ties: more vertices, then more seed cells: order-free keys).
-    seeds_in = np.bincount(cell_label, minlength=mesh.n_components)
-    comps = [
-        c
-        for c in np.lexsort((-seeds_in, -comp_vertices, -comp_faces)).tolist()
-        if comp_faces[c] >= min_faces and seeds_in[c]
-    ]
-    chosen = [_choose_seeds(mesh, cells[cell_label == c], _SEEDS) for c in comps]
+    comp_faces = np.bincount(mesh.label[f[:, 0]], minlength=mesh.n_components)
     hypotheses = seeded = 0
     readings = []
-    for c, first in zip(comps, chosen, strict=True):
-        reading = _read_component(mesh, cells[cell_label == c], first, codes, min_faces)
+    for c, reading in _read_components(mesh, codes, min_faces):
         hypotheses += reading.hypotheses
         seeded += reading.seeds
         if reading.index is not None:
