@@ -2,6 +2,6 @@
 
 import sys
 
-from meshwm.cli import main
+from meshwm.apps.cli import main
 
 sys.exit(main())

@@ -10,7 +10,7 @@ thresholds keeps the freed memory in the process for the next array: about 450 f
 file, the same peak memory (0.3 GB).
 
 Only the processes meshwm runs itself call this (the command line, and the workers of
-:mod:`meshwm.batch`, Dask workers included, whose nanny sets ``MALLOC_TRIM_THRESHOLD_`` to
+:mod:`meshwm.apps.batch`, Dask workers included, whose nanny sets ``MALLOC_TRIM_THRESHOLD_`` to
 64 KiB by default); importing meshwm changes nothing.  Elsewhere than glibc it does nothing.
 """
 

@@ -10,11 +10,11 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass, fields
 from typing import Any
 
-from .wavelet import MRR_LEVEL3_KEYS
+from meshwm.signal.wavelet import MRR_LEVEL3_KEYS
 
 __all__ = ["CHANNELS", "DEFAULT_STEP", "PROFILES", "WatermarkParams"]
 
-#: Canonical-frame axes that can carry bits (see :mod:`meshwm.embed`).
+#: Canonical-frame axes that can carry bits (see :mod:`meshwm.watermark`).
 CHANNELS = ("x", "y", "z")
 
 #: The embedding schemes: ``"paper"`` is the paper's scheme made exact (section 3);
@@ -34,7 +34,7 @@ class WatermarkParams:
     ----------
     profile : str
         ``"paper"`` (the paper's scheme, faithful, for the side-by-side benchmark) or
-        ``"robust"`` (meshwm's scheme for real pipelines, :mod:`meshwm.robust`).  Default
+        ``"robust"`` (meshwm's scheme for real pipelines, :mod:`meshwm.profiles.robust`).  Default
         ``"robust"``.
     size : int
         Geometry-image size N (a power of two, 64..2048).  Default 256.
@@ -44,7 +44,7 @@ class WatermarkParams:
         Canonical-frame axes whose coefficients carry bits; the paper uses x and y ("z to
         increase capacity").  Default ``("x", "y")``.
     bands : tuple of str
-        MRR level-3 matrices that carry bits (keys of :func:`meshwm.wavelet.mrr_decompose`).
+        MRR level-3 matrices that carry bits (keys of :func:`meshwm.signal.wavelet.mrr_decompose`).
         Default: all 16 level-3 matrices of the paper's tree.
     step : float, optional
         Quantisation step.  ``"paper"``: of the remainder rule, relative to the model's RMS

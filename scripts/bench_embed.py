@@ -6,7 +6,7 @@ For the largest dev mesh (default: the ``*.ply`` with the most faces in ``../sha
 today ``igea.ply``, 268,686 faces) at N = 256 with the default 32×32 logo:
 
 embed
-    File to file, as ``meshwm embed --no-distance`` runs it: ``read_mesh``, ``meshwm.embed``
+    File to file, as ``meshwm embed --no-distance`` runs it: ``read_mesh``, ``meshwm.watermark``
     (remesh, read the cover back from its connectivity, mark) and ``write_mesh`` (PLY).
 embed + distances
     The same with the MeshLab distance measurements of the report (``mrms_rel``,
@@ -50,9 +50,9 @@ except ImportError:
 from _machine import machine_info  # noqa: E402
 from bench_remesh import boundary_set, floor_once, largest_mesh  # noqa: E402
 
-from meshwm.embed import embed, extract  # noqa: E402
-from meshwm.io import read_mesh, write_mesh  # noqa: E402
-from meshwm.mark import default_mark  # noqa: E402
+from meshwm.watermark import embed, extract  # noqa: E402
+from meshwm.mesh.io import read_mesh, write_mesh  # noqa: E402
+from meshwm.message.mark import default_mark  # noqa: E402
 
 
 def main(argv: list[str] | None = None) -> int:

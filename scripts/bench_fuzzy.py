@@ -3,12 +3,12 @@
 What it measures
 ----------------
 reference
-    ``skfuzzy.control.ControlSystemSimulation`` on ``meshwm.fuzzy.build_control_system()`` with
+    ``skfuzzy.control.ControlSystemSimulation`` on ``meshwm.signal.fuzzy.build_control_system()`` with
     its default options, used the way a per-coefficient loop would use it: set the three inputs,
     ``compute()``, read ``output["weight"]``, for ``--reference-points`` random points (default
     300, uniform in [0, 1]^3, after 10 warm-up points).  Per-point time = total / points.
 vectorised
-    ``meshwm.fuzzy.infer_strength`` on ``--points`` random points (default 65,536: one channel of
+    ``meshwm.signal.fuzzy.infer_strength`` on ``--points`` random points (default 65,536: one channel of
     a 256 x 256 geometry image), median wall time of ``--repeats`` runs (default 5) after one
     warm-up run.  Per-point time = median / points.
 agreement
@@ -52,7 +52,7 @@ import numpy as np  # noqa: E402
 from _machine import machine_info  # noqa: E402
 from skfuzzy import control  # noqa: E402
 
-from meshwm.fuzzy import (  # noqa: E402
+from meshwm.signal.fuzzy import (  # noqa: E402
     DEFAULT_CHUNK_SIZE,
     INPUT_NAMES,
     build_control_system,

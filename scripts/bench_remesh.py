@@ -7,8 +7,8 @@ For one mesh (by default the ``*.ply`` with the most faces in ``../shared/meshes
 
 remesh
     The full stage as a user runs it, from file to file:
-    ``meshwm.io.read_mesh(path)``, ``meshwm.geometry_image.mesh_to_geometry_image(v, f, size=N)``,
-    ``meshwm.geometry_image.geometry_image_to_mesh(...)`` and ``meshwm.io.write_mesh`` into a
+    ``meshwm.mesh.io.read_mesh(path)``, ``meshwm.gim.remesh.mesh_to_geometry_image(v, f, size=N)``,
+    ``meshwm.gim.remesh.geometry_image_to_mesh(...)`` and ``meshwm.mesh.io.write_mesh`` into a
     temporary directory.  Median wall time over ``--repeats`` runs.
 floor
     What the stage cannot go below: ``read_mesh`` of the same file plus ONE
@@ -57,8 +57,8 @@ import igl  # noqa: E402
 import numpy as np  # noqa: E402
 from _machine import machine_info  # noqa: E402
 
-from meshwm import geometry_image as gi  # noqa: E402
-from meshwm import io as mio  # noqa: E402
+from meshwm.gim import remesh as gi  # noqa: E402
+from meshwm.mesh import io as mio  # noqa: E402
 
 
 def _ply_face_count(path: Path) -> int:

@@ -9,13 +9,13 @@ binary PLY, with a ``manifest.json`` (file -> id).  The folder is reused when it
 matches (``--regenerate`` forces a new one).  Then, over the same file list:
 
 load only
-    ``meshwm.io.read_mesh`` of every file, in this process, one after the other.
+    ``meshwm.mesh.io.read_mesh`` of every file, in this process, one after the other.
 verify --jobs 1
-    ``meshwm.batch.run_local(paths, Check(any_id=True), jobs=1)``: in this process.
+    ``meshwm.apps.batch.run_local(paths, Check(any_id=True), jobs=1)``: in this process.
 verify --jobs 2
     The same with ``jobs=2`` (a process pool; its start-up is included, as a user sees it).
 dask
-    ``meshwm.batch.run_dask`` on a ``LocalCluster(n_workers=2, threads_per_worker=1)``; the
+    ``meshwm.apps.batch.run_dask`` on a ``LocalCluster(n_workers=2, threads_per_worker=1)``; the
     cluster's start-up (with each worker importing meshwm) is reported separately, not
     timed.  Twice: as Dask starts its workers by default, and without the
     ``MALLOC_TRIM_THRESHOLD_=65536`` Dask sets in their environment (which once made every
@@ -31,10 +31,10 @@ verify time to the load-only time, and the CPU seconds used (this process, its r
 children and the Dask workers), whose ratio to the files is a per-core rate less sensitive
 than wall time to what else the machine is running.  Then the targets of issue #5: ≥ 20 assets/s
 per core (``--jobs 1``) and ≥ 1.8× from 1 to 2 jobs.  Also a per-stage breakdown on ``--breakdown``
-files (median seconds per file: read, check_mesh, ``meshwm.grid.recover_grid``, decode).
+files (median seconds per file: read, check_mesh, ``meshwm.gim.recover.recover_grid``, decode).
 
 With ``--reorder``, the same measurements on a copy of the folder with every file's vertex
-and face order shuffled (``meshwm.attacks.reorder``): files re-exported by other tools lose
+and face order shuffled (``meshwm.attacks.library.reorder``): files re-exported by other tools lose
 the writer's order.
 
 Each row is run ``--repeat`` times (default 3) and the run of median time is reported (all
@@ -96,12 +96,12 @@ except ImportError:
 from _machine import machine_info  # noqa: E402
 
 from meshwm._validate import check_mesh  # noqa: E402
-from meshwm.attacks import reorder  # noqa: E402
-from meshwm.batch import Check, run_dask, run_local  # noqa: E402
-from meshwm.embed import Reader, embed  # noqa: E402
-from meshwm.geometry_image import mesh_to_geometry_image  # noqa: E402
-from meshwm.grid import GridError, recover_grid  # noqa: E402
-from meshwm.io import read_mesh, write_mesh  # noqa: E402
+from meshwm.attacks.library import reorder  # noqa: E402
+from meshwm.apps.batch import Check, run_dask, run_local  # noqa: E402
+from meshwm.watermark import Reader, embed  # noqa: E402
+from meshwm.gim.remesh import mesh_to_geometry_image  # noqa: E402
+from meshwm.gim.recover import GridError, recover_grid  # noqa: E402
+from meshwm.mesh.io import read_mesh, write_mesh  # noqa: E402
 from meshwm.params import WatermarkParams  # noqa: E402
 
 # --------------------------------------------------------------------------------------------
@@ -288,7 +288,7 @@ def start_cluster(malloc_trim: bool) -> tuple[Any, Any]:
         os.environ.clear()
         os.environ.update(saved)
     # Part of start-up, not of the timed run: each worker imports meshwm (about 1 s).
-    client.run(importlib.import_module, "meshwm.batch")
+    client.run(importlib.import_module, "meshwm.apps.batch")
     return client, cluster
 
 

@@ -2,9 +2,9 @@
 
 For each mesh in ``../shared/meshes`` (or the files given), at N = 256 with the default
 parameters (robust profile), an 8-byte id (the first 8 bytes of the SHA-256 of the mesh name)
-is embedded with the key ``pipeline-<name>`` (:func:`meshwm.embed.embed` with ``ident``), then
+is embedded with the key ``pipeline-<name>`` (:func:`meshwm.watermark.embed` with ``ident``), then
 every operation below is applied to the marked mesh and the id is read back blind
-(:func:`meshwm.embed.extract_id`).  A cell passes ("ok") when the decoded id is the embedded
+(:func:`meshwm.watermark.extract_id`).  A cell passes ("ok") when the decoded id is the embedded
 one, the bit error rate of the 256 code bits is 0 and the mark is detected
 (:func:`meshwm.metrics.is_detected` at a false-positive rate of 1e-6, Bonferroni-corrected by
 the hypotheses extraction tried).
@@ -13,7 +13,7 @@ Operations (one row each):
 
 - ``none``: the marked arrays as returned by ``embed`` (sanity);
 - ``trimesh OBJ/PLY/STL/GLB``: ``trimesh.Trimesh(v, f, process=False).export(path)``, read back
-  with :func:`meshwm.io.read_mesh`;
+  with :func:`meshwm.mesh.io.read_mesh`;
 - ``pymeshlab OBJ/PLY/STL`` (GLB too if the installed pymeshlab can save it; if not, a note says
   so): ``MeshSet.save_current_mesh(path)``, read back with ``read_mesh``;
 - ``reorder``: random vertex + face permutation and cyclic shift of each face's corners;
@@ -78,10 +78,10 @@ except ImportError:
 
 from _machine import machine_info  # noqa: E402
 
-from meshwm.attacks import float32, meshlab_laplacian, quantize, reorder, similarity  # noqa: E402
-from meshwm.embed import embed, extract_id  # noqa: E402
-from meshwm.grid import recover_grid  # noqa: E402
-from meshwm.io import read_mesh  # noqa: E402
+from meshwm.attacks.library import float32, meshlab_laplacian, quantize, reorder, similarity  # noqa: E402
+from meshwm.watermark import embed, extract_id  # noqa: E402
+from meshwm.gim.recover import recover_grid  # noqa: E402
+from meshwm.mesh.io import read_mesh  # noqa: E402
 from meshwm.metrics import is_detected  # noqa: E402
 
 Mesh = tuple[NDArray[np.float64], NDArray[np.int64]]
@@ -101,7 +101,7 @@ WELD_DEFAULT = "weld MeshLab default (0.01 %)"
 
 
 def trimesh_round_trip(v: NDArray, f: NDArray, path: Path) -> Mesh:
-    """Write with trimesh (no processing), read back with meshwm.io.read_mesh."""
+    """Write with trimesh (no processing), read back with meshwm.mesh.io.read_mesh."""
     trimesh.Trimesh(v, f, process=False).export(path)
     try:
         return read_mesh(path)
@@ -121,7 +121,7 @@ def _meshset(v: NDArray, f: NDArray) -> pymeshlab.MeshSet:
 
 
 def pymeshlab_round_trip(v: NDArray, f: NDArray, path: Path) -> Mesh:
-    """Save with pymeshlab (its default options), read back with meshwm.io.read_mesh."""
+    """Save with pymeshlab (its default options), read back with meshwm.mesh.io.read_mesh."""
     _meshset(v, f).save_current_mesh(str(path))
     try:
         return read_mesh(path)

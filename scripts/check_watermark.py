@@ -3,10 +3,10 @@
 For each mesh in ``../shared/meshes`` (or the files given), at N = 256 with the default 32×32
 logo and a key derived from the mesh name:
 
-- embed (``meshwm.embed``) and report PSNR, MRMS of the mark alone (unmarked vs marked
+- embed (``meshwm.watermark``) and report PSNR, MRMS of the mark alone (unmarked vs marked
   geometry-image meshes, MeshLab both ways, relative to the bounding-box diagonal; target
   ≤ 0.02 %), Hausdorff and RMS of output vs input, carriers and seconds;
-- write the marked mesh as PLY, OBJ and STL, read each back (``meshwm.io``) and extract blind;
+- write the marked mesh as PLY, OBJ and STL, read each back (``meshwm.mesh.io``) and extract blind;
 - extract after a random similarity (rotation, translation up to 10 diagonals, uniform scale
   log-uniform in 0.01..100) and after a random vertex + face permutation (with a cyclic shift
   of each face's corners);
@@ -37,11 +37,11 @@ try:
 except ImportError:
     sys.path.insert(0, str(REPO_ROOT))
 
-from meshwm.attacks import reorder, similarity  # noqa: E402
-from meshwm.cli import main as cli_main  # noqa: E402
-from meshwm.embed import embed, extract  # noqa: E402
-from meshwm.io import read_mesh, write_mesh  # noqa: E402
-from meshwm.mark import default_mark, save_mark  # noqa: E402
+from meshwm.attacks.library import reorder, similarity  # noqa: E402
+from meshwm.apps.cli import main as cli_main  # noqa: E402
+from meshwm.watermark import embed, extract  # noqa: E402
+from meshwm.mesh.io import read_mesh, write_mesh  # noqa: E402
+from meshwm.message.mark import default_mark, save_mark  # noqa: E402
 
 MRMS_TARGET = 0.0002
 

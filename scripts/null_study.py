@@ -5,7 +5,7 @@
 candidate tried; :func:`meshwm.metrics.is_detected`).  That is a false-positive rate of at
 most ``fpr`` only if, on a mesh that does not carry the mark, the agreement counts really are
 Binomial(n, 1/2).  This script measures it on the development meshes, with the same decoder
-``verify`` runs (:class:`meshwm.embed.Reader`):
+``verify`` runs (:class:`meshwm.watermark.Reader`):
 
 - **raw**: every development mesh as it is (not a meshwm grid), with random keys;
 - **remeshed**: every development mesh remeshed to an unmarked N = 256 geometry image (the
@@ -52,14 +52,14 @@ except ImportError:
 
 from _machine import machine_info  # noqa: E402
 
-from meshwm import attacks  # noqa: E402
-from meshwm.embed import Reader, embed  # noqa: E402
-from meshwm.geometry_image import geometry_image_to_mesh, mesh_to_geometry_image  # noqa: E402
-from meshwm.grid import GridError  # noqa: E402
-from meshwm.io import read_mesh  # noqa: E402
-from meshwm.mark import default_mark  # noqa: E402
+from meshwm.attacks import library as attacks  # noqa: E402
+from meshwm.watermark import Reader, embed  # noqa: E402
+from meshwm.gim.remesh import geometry_image_to_mesh, mesh_to_geometry_image  # noqa: E402
+from meshwm.gim.recover import GridError  # noqa: E402
+from meshwm.mesh.io import read_mesh  # noqa: E402
+from meshwm.message.mark import default_mark  # noqa: E402
 from meshwm.metrics import detection_p_value, is_detected  # noqa: E402
-from meshwm.payload import PAYLOAD_BITS  # noqa: E402
+from meshwm.message.payload import PAYLOAD_BITS  # noqa: E402
 
 RIGHT_KEY = "meshwm-null-study-right-key"
 #: Hypotheses of a complete unmarked grid read with every decoder candidate (192 grid seeds x
@@ -112,7 +112,7 @@ def _geometry_image(path: Path, size: int, cache: Path | None):
         stored = cache / f"{path.stem}-n{size}.npz"
         if stored.exists():
             with np.load(stored) as z:
-                from meshwm.geometry_image import GeometryImage
+                from meshwm.gim.remesh import GeometryImage
 
                 return v, f, GeometryImage(z["gim"], z["weld"], z["ov"], z["of"], {})
     gi = mesh_to_geometry_image(v, f, size=size)

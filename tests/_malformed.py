@@ -1,7 +1,7 @@
 """Generator of malformed mesh files for the reader tests (``tests/test_io.py``).
 
 Every case is built deterministically from the binary PLY assets in ``assets/`` (parsed here
-with NumPy, independently of :mod:`meshwm.io`) or from generated text: truncations, byte
+with NumPy, independently of :mod:`meshwm.mesh.io`) or from generated text: truncations, byte
 flips at fixed structural offsets or at positions derived with :mod:`hashlib`, absurd header
 counts, NaN/inf coordinates, face indices out of range, empty and non-mesh files.  Corruptions
 are chosen so that they always break something a careful reader can detect (a header keyword,
@@ -666,7 +666,7 @@ _add(
 
 #: Every case id, in generation order.
 CASE_IDS: tuple[str, ...] = tuple(_CASES)
-#: Ids of the cases :func:`meshwm.io.read_mesh` must refuse.
+#: Ids of the cases :func:`meshwm.mesh.io.read_mesh` must refuse.
 MUST_FAIL_ON_READ_IDS: tuple[str, ...] = tuple(k for k, v in _CASES.items() if v[2])
 
 

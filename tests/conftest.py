@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from meshwm.io import read_mesh
+from meshwm.mesh.io import read_mesh
 
 ASSETS = Path(__file__).parent.parent / "assets"
 

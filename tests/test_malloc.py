@@ -62,6 +62,6 @@ def test_keep_freed_memory_is_idempotent():
 
 
 def test_importing_meshwm_does_not_tune_malloc():
-    code = "import meshwm, meshwm.embed, meshwm.batch, meshwm._malloc as m; print(m._done)"
+    code = "import meshwm, meshwm.watermark, meshwm.apps.batch, meshwm._malloc as m; print(m._done)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "False"

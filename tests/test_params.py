@@ -10,7 +10,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from meshwm.params import CHANNELS, WatermarkParams
-from meshwm.wavelet import MRR_LEVEL3_KEYS
+from meshwm.signal.wavelet import MRR_LEVEL3_KEYS
 
 
 def test_defaults_are_valid_and_documented():

@@ -1,0 +1,257 @@
+"""The robust profile on geometry images: exact round trips, invariances, erasures, bad input."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy import ndimage
+from scipy.spatial.transform import Rotation
+
+from meshwm.params import WatermarkParams
+from meshwm.profiles.robust import (
+    embed_gim_robust,
+    extract_gim_robust,
+    fill_missing,
+    local_frames,
+    normal_distortion,
+)
+
+
+def _surface(n: int, seed: int = 0) -> np.ndarray:
+    """A bumpy, curved sheet sampled on an n × n grid (a stand-in for a geometry image)."""
+    rng = np.random.default_rng(seed)
+    u, v = np.meshgrid(np.linspace(-1, 1, n), np.linspace(-1, 1, n), indexing="ij")
+    a, b = rng.uniform(2, 5, size=2)
+    z = 0.3 * np.sin(a * u) * np.cos(b * v) + 0.2 * (u**2 - v**2)
+    return np.stack([u, v, z], axis=-1)
+
+
+def _bits(k: int, seed: int = 1) -> np.ndarray:
+    return np.random.default_rng(seed).integers(0, 2, size=k).astype(np.uint8)
+
+
+def _params(n: int, **kw) -> WatermarkParams:
+    return WatermarkParams(profile="robust", size=n, **kw)
+
+
+@pytest.mark.parametrize("n, k", [(64, 16), (128, 64), (128, 256), (256, 1024)])
+@pytest.mark.parametrize("key", ["k", "another key"])
+def test_round_trip_exact(n, k, key):
+    gim = _surface(n)
+    bits = _bits(k)
+    p = _params(n)
+    marked = embed_gim_robust(gim, bits, key=key, params=p).gim
+    out = extract_gim_robust(marked, k, key=key, params=p)
+    assert out.bits.tolist() == bits.tolist()
+    assert np.all(out.confidence[bits == 1] > 0.5) and np.all(out.confidence[bits == 0] < -0.5)
+
+
+@pytest.mark.parametrize("distortion", [5e-5, 1.6e-4, 5e-4])
+def test_calibration_reaches_the_target_and_extraction_needs_no_step(distortion):
+    gim = _surface(256, seed=11)
+    bits = _bits(1024, seed=12)
+    p = _params(256, distortion=distortion)
+    res = embed_gim_robust(gim, bits, key="k", params=p)
+    assert normal_distortion(gim, res.gim) == pytest.approx(distortion, rel=0.05)
+    assert res.report["distortion"] == pytest.approx(distortion, rel=0.05)
+    out = extract_gim_robust(res.gim, 1024, key="k", params=_params(256))
+    assert out.bits.tolist() == bits.tolist()
+
+
+def test_explicit_step_is_used_as_given():
+    gim = _surface(128)
+    p = _params(128, step=0.03)
+    res = embed_gim_robust(gim, _bits(64), key="k", params=p)
+    assert res.report["step"] == 0.03
+    assert extract_gim_robust(res.gim, 64, key="k", params=p).bits.tolist() == _bits(64).tolist()
+    assert embed_gim_robust(gim, _bits(64), key="k", params=_params(128, step=0.06)).report[
+        "distortion"
+    ] == pytest.approx(2 * res.report["distortion"], rel=0.1)
+
+
+def test_border_samples_do_not_move():
+    gim = _surface(128)
+    marked = embed_gim_robust(gim, _bits(64), key="k", params=_params(128)).gim
+    assert np.array_equal(marked[[0, -1]], gim[[0, -1]])
+    assert np.array_equal(marked[:, [0, -1]], gim[:, [0, -1]])
+    assert not np.array_equal(marked, gim)
+
+
+def test_similarity_transform_reads_the_same():
+    gim = _surface(128, seed=3)
+    bits = _bits(256, seed=4)
+    p = _params(128)
+    marked = embed_gim_robust(gim, bits, key="k", params=p).gim
+    rot = Rotation.from_euler("xyz", [0.3, -1.1, 2.0]).as_matrix()
+    moved = 37.5 * marked @ rot.T + np.array([5.0, -2.0, 100.0])
+    assert extract_gim_robust(moved, 256, key="k", params=p).bits.tolist() == bits.tolist()
+
+
+def test_wrong_key_reads_noise():
+    gim = _surface(256)
+    bits = _bits(1024)
+    p = _params(256)
+    marked = embed_gim_robust(gim, bits, key="right", params=p).gim
+    wrong = extract_gim_robust(marked, 1024, key="wrong", params=p).bits
+    assert 0.4 < np.mean(wrong != bits) < 0.6
+
+
+def test_deterministic_bytes():
+    gim = _surface(128)
+    p = _params(128)
+    a = embed_gim_robust(gim, _bits(64), key="k", params=p).gim
+    b = embed_gim_robust(gim.copy(), _bits(64), key="k", params=p).gim
+    assert a.tobytes() == b.tobytes()
+
+
+def test_smoothing_is_survived_by_the_gain_search():
+    gim = _surface(256, seed=5)
+    bits = _bits(1024, seed=6)
+    p = _params(256)
+    marked = embed_gim_robust(gim, bits, key="k", params=p).gim
+    blurred = np.stack(
+        [ndimage.gaussian_filter(marked[..., c], 1.5, mode="nearest") for c in range(3)], -1
+    )
+    out = extract_gim_robust(blurred, 1024, key="k", params=p)
+    assert out.report["gain"] < 0.99 * embedded_gain(gim, bits, p)  # the search saw the blur
+    assert np.mean(out.bits != bits) < 0.05
+
+
+def embedded_gain(gim, bits, p):
+    marked = embed_gim_robust(gim, bits, key="k", params=p).gim
+    return extract_gim_robust(marked, len(bits), key="k", params=p).report["gain"]
+
+
+def test_missing_samples_are_erasures():
+    gim = _surface(256, seed=7)
+    bits = _bits(1024, seed=8)
+    p = _params(256)
+    marked = embed_gim_robust(gim, bits, key="k", params=p).gim
+    cropped = marked.copy()
+    cropped[:, 180:] = np.nan  # about 30 % of the samples lost
+    out = extract_gim_robust(cropped, 1024, key="k", params=p)
+    assert out.report["missing"] == pytest.approx(76 / 256)
+    assert np.mean(out.bits != bits) < 0.05
+
+
+def test_fill_missing_keeps_present_samples_and_is_finite():
+    gim = _surface(64)
+    holed = gim.copy()
+    holed[10:20, 30:50] = np.nan
+    filled, missing = fill_missing(holed)
+    assert missing.sum() == 200
+    assert np.all(np.isfinite(filled))
+    assert np.array_equal(filled[~missing], gim[~missing])
+    with pytest.raises(ValueError, match="no samples"):
+        fill_missing(np.full((8, 8, 3), np.nan))
+
+
+def test_local_frames_are_orthonormal_and_rotate_with_the_surface():
+    approx = _surface(32, seed=2) * 8.0
+    frames, scale = local_frames(approx)
+    eye = np.einsum("ijab,ijcb->ijac", frames, frames)
+    assert np.allclose(eye, np.eye(3), atol=1e-12)
+    assert np.all(scale > 0)
+    rot = Rotation.from_euler("zyx", [1.0, 0.2, -0.7]).as_matrix()
+    frames_r, scale_r = local_frames(3.0 * approx @ rot.T)
+    assert np.allclose(frames_r, frames @ rot.T, atol=1e-10)
+    assert np.allclose(scale_r, 3.0 * scale)
+
+
+def test_degenerate_positions_carry_nothing():
+    gim = _surface(64)
+    gim[:, :, :] = gim[:, :1, :]  # every column the same: tangent along j vanishes
+    p = _params(64)
+    res = embed_gim_robust(gim, _bits(16), key="k", params=p)
+    assert res.report["carriers"] == 0
+    assert np.array_equal(res.gim, gim)
+
+
+@pytest.mark.parametrize(
+    "gim, k, match",
+    [
+        (np.zeros((64, 64)), 16, "N, N, 3"),
+        (np.zeros((48, 48, 3)), 16, "power of two"),
+        (np.zeros((16, 16, 3)), 16, "power of two"),
+        (_surface(64), 0, "positive"),
+        (_surface(64), 10_000, "do not fit"),
+    ],
+)
+def test_bad_input(gim, k, match):
+    p = _params(64)
+    with pytest.raises(ValueError, match=match):
+        extract_gim_robust(gim, k, key="k", params=p)
+
+
+def test_embed_refuses_nan_cover():
+    gim = _surface(64)
+    gim[5, 5, 0] = np.nan
+    with pytest.raises(ValueError, match="NaN"):
+        embed_gim_robust(gim, _bits(16), key="k", params=_params(64))
+
+
+def test_gain_search_matches_the_plain_loop():
+    """The vectorised float32 score search picks the gain a float64 loop over GAINS picks."""
+    from meshwm.profiles.robust import _FINE, GAINS, _layout, _scores, prepare_gim_robust
+
+    gim = _surface(128, seed=3)
+    bits = _bits(64, seed=4)
+    p = _params(128)
+    marked = embed_gim_robust(gim, bits, key="k", params=p).gim
+    noisy = marked + np.random.default_rng(0).normal(0, 2e-3, marked.shape)
+
+    def plain(prep, layout, gains):
+        out = []
+        for g in gains:
+            vote = prep.weight * np.cos(2 * np.pi * (prep.x / g - layout.dither))
+            out.append(np.abs(np.bincount(layout.bit, weights=vote, minlength=64)).sum())
+        return np.array(out)
+
+    for received, key in ((marked, "k"), (noisy, "k"), (marked, "other")):
+        prep = prepare_gim_robust(received, params=p)
+        layout = _layout(128, key, 64)
+        fast = _scores(prep.x, prep.weight, layout, GAINS)
+        np.testing.assert_allclose(fast, plain(prep, layout, GAINS), rtol=1e-5)
+        fine = GAINS[int(np.argmax(fast))] * _FINE
+        got = _scores(prep.x, prep.weight, layout, fine)
+        np.testing.assert_allclose(got, plain(prep, layout, fine), rtol=1e-5)
+
+
+def test_prepared_decoding_equals_one_shot_extraction():
+    from meshwm.profiles.robust import decode_robust, prepare_gim_robust
+
+    gim = _surface(128, seed=7)
+    bits = _bits(64, seed=8)
+    p = _params(128)
+    marked = embed_gim_robust(gim, bits, key="k", params=p).gim
+    marked[40:60, 10:30] = np.nan  # a crop
+    prep = prepare_gim_robust(marked, params=p)
+    for key in ("k", "x", "y"):
+        one = extract_gim_robust(marked, 64, key=key, params=p)
+        two = decode_robust(prep, 64, key=key)
+        assert one.bits.tolist() == two.bits.tolist()
+        np.testing.assert_array_equal(one.confidence, two.confidence)
+        assert one.report == two.report
+    assert np.mean(decode_robust(prep, 64, key="k").bits != bits) < 0.05
+
+
+def test_received_mesh_decodes_many_keys_like_fresh_extractions():
+    """ReceivedMesh prepares each candidate once and gives what extract_mesh_robust gives."""
+    from meshwm.gim.remesh import geometry_image_to_mesh
+    from meshwm.profiles.robust import ReceivedMesh, extract_mesh_robust
+
+    n = 64
+    gim = _surface(n, seed=9)
+    p = _params(n)
+    marked = embed_gim_robust(gim, _bits(16), key="k", params=p).gim
+    v, f = geometry_image_to_mesh(marked)
+    index = np.arange(n * n).reshape(n, n)
+    received = ReceivedMesh(v, f, index, params=p)
+    for key in ("k", "wrong", "k"):
+        a = received.decode(16, key=key)
+        b = extract_mesh_robust(v, f, index, 16, key=key, params=p)
+        assert a.bits.tolist() == b.bits.tolist()
+        assert a.report == b.report
+    assert received.decode(16, key="k").bits.tolist() == _bits(16).tolist()
+    # A weak read (wrong key) went through the unsmoothing candidates, now kept.
+    assert received._unsmoothed is not None and len(received._unsmoothed) == 12
