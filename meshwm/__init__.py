@@ -8,14 +8,19 @@ The data flow, one module per stage (imports only go downstream):
 the mark itself: ``mark`` (binary images) -> ``scramble`` (Arnold transform).
 """
 
-from meshwm._validate import MeshError
-from meshwm.mesh.clean import CleanMesh, clean_mesh
-from meshwm.signal.fuzzy import infer_strength, strength_class
+from meshwm.errors import MeshError
 from meshwm.gim.remesh import GeometryImage, geometry_image_to_mesh, mesh_to_geometry_image
+from meshwm.mesh.clean import CleanMesh, clean_mesh
 from meshwm.mesh.io import read_mesh, write_mesh
 from meshwm.message.mark import default_mark, load_mark, save_mark
 from meshwm.message.scramble import arnold_period, arnold_scramble, arnold_unscramble
-from meshwm.signal.wavelet import dyadic_decompose, dyadic_reconstruct, mrr_decompose, mrr_reconstruct
+from meshwm.signal.fuzzy import infer_strength, strength_class
+from meshwm.signal.wavelet import (
+    dyadic_decompose,
+    dyadic_reconstruct,
+    mrr_decompose,
+    mrr_reconstruct,
+)
 
 __version__ = "0.1.0"
 

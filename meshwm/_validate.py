@@ -10,14 +10,52 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["DEFAULT_MAX_FACES", "MeshError", "check_mesh", "check_square_pow2"]
+from meshwm.errors import MeshError
 
-#: Default refusal limit on the number of faces read from a file (issue #2).
+__all__ = [
+    "DEFAULT_MAX_FACES",
+    "DEFAULT_SIZE",
+    "SIZE_RANGE",
+    "check_integer",
+    "check_mesh",
+    "check_square_pow2",
+]
+
+#: Default refusal limit on the number of faces read from a file or given as arrays.
 DEFAULT_MAX_FACES = 5_000_000
+#: Geometry-image sizes N meshwm writes: powers of two in this range (inclusive).
+SIZE_RANGE = (64, 2048)
+#: The default geometry-image size N.
+DEFAULT_SIZE = 256
 
 
-class MeshError(ValueError):
-    """A mesh (or mesh file) that meshwm cannot work with; the message is one line."""
+def check_integer(
+    value: object, *, name: str, low: int | None = None, high: int | None = None
+) -> int:
+    """Check that ``value`` is an integer (not a bool) in ``[low, high]``; return it as ``int``.
+
+    Raises :class:`TypeError` for a non-integer and :class:`ValueError` out of range, naming
+    ``name`` and the value received.
+
+    Examples
+    --------
+    >>> check_integer(np.int64(3), name="level", low=1, high=5)
+    3
+    >>> check_integer(0, name="level", low=1)
+    Traceback (most recent call last):
+    ...
+    ValueError: level must be >= 1, got 0
+    """
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+        raise TypeError(f"{name} must be an integer, got {type(value).__name__}")
+    number = int(value)
+    if low is not None and high is not None and not low <= number <= high:
+        raise ValueError(f"{name} must lie in {low}..{high}, got {number}")
+    if low is not None and number < low:
+        raise ValueError(f"{name} must be >= {low}, got {number}")
+    if high is not None and number > high:
+        raise ValueError(f"{name} must be <= {high}, got {number}")
+    return number
 
 
 def check_mesh(
@@ -82,11 +120,11 @@ def check_mesh(
     return v, f
 
 
-def check_square_pow2(size: int, *, name: str = "size", low: int = 64, high: int = 2048) -> int:
+def check_square_pow2(
+    size: object, *, name: str = "size", low: int = SIZE_RANGE[0], high: int = SIZE_RANGE[1]
+) -> int:
     """Check that ``size`` is a power of two in ``[low, high]`` and return it as ``int``."""
-    if isinstance(size, bool) or not isinstance(size, (int, np.integer)):
-        raise TypeError(f"{name} must be an integer, got {type(size).__name__}")
-    size = int(size)
+    size = check_integer(size, name=name)
     if size < low or size > high or size & (size - 1):
         raise ValueError(f"{name} must be a power of two between {low} and {high}, got {size}")
     return size

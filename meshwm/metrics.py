@@ -18,8 +18,6 @@ __all__ = [
     "bit_error_rate",
     "bounding_box_diagonal",
     "correlation2",
-    "detection_p_value",
-    "is_detected",
     "psnr",
     "surface_distance",
 ]
@@ -171,40 +169,3 @@ def correlation2(a: NDArray, b: NDArray) -> float:
     y = y - y.mean()
     den = np.sqrt(np.sum(x * x) * np.sum(y * y))
     return float(np.sum(x * y) / den)
-
-
-def detection_p_value(agreeing: int, total: int) -> float:
-    """P(at least ``agreeing`` of ``total`` fair coin flips come up right): the binomial tail.
-
-    Under the null hypothesis (no mark, or another key) the keyed dither makes every extracted
-    bit a fair coin, so this is the probability of a match at least this good by chance.
-
-    Examples
-    --------
-    >>> detection_p_value(10, 10) == 0.5**10
-    True
-    """
-    from scipy.stats import binom
-
-    if not 0 <= agreeing <= total or total < 1:
-        raise ValueError(f"need 0 <= agreeing <= total and total >= 1, got {agreeing}, {total}")
-    return float(binom.sf(agreeing - 1, total, 0.5))
-
-
-def is_detected(p_value: float, *, fpr: float = 1e-6, hypotheses: int = 1) -> bool:
-    """The verify decision: present when ``p_value < fpr / hypotheses`` (Bonferroni).
-
-    Extraction may try several hypotheses (grid orientations, offsets, sizes, gains) and keep
-    the best; dividing the false-positive budget by their number keeps the overall chance of a
-    false "present" on an unmarked mesh below ``fpr``.
-
-    Examples
-    --------
-    >>> is_detected(1e-9, fpr=1e-6), is_detected(1e-9, fpr=1e-6, hypotheses=10_000)
-    (True, False)
-    """
-    if not 0.0 < fpr < 1.0:
-        raise ValueError(f"fpr must lie in (0, 1), got {fpr}")
-    if hypotheses < 1:
-        raise ValueError(f"hypotheses must be >= 1, got {hypotheses}")
-    return bool(p_value < fpr / hypotheses)

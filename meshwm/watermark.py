@@ -41,9 +41,9 @@ This is the one module that composes the stages.  On the geometry image (:func:`
 
 On meshes (:func:`embed`, :func:`extract`), the geometry image comes from
 :func:`meshwm.gim.remesh.mesh_to_geometry_image` at embedding and from the connectivity of
-the received mesh at extraction (:func:`meshwm.gim.recover.recover_grid`).  The embedder reads its own
-cover back through :func:`~meshwm.gim.recover.recover_grid` too, so both ends start from the same
-numbers.
+the received mesh at extraction (:func:`meshwm.gim.recover.recover_grid`).  The embedder reads
+its own cover back through :func:`~meshwm.gim.recover.recover_grid` too, so both ends start
+from the same numbers.
 
 References
 ----------
@@ -63,27 +63,28 @@ from typing import Any, NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from meshwm._validate import MeshError, check_mesh
-from meshwm.mesh.clean import clean_mesh
-from meshwm.signal.fuzzy import EMBEDDING_CLASSES, strength_class
+from meshwm._validate import check_mesh
+from meshwm.detect import detection_p_value
+from meshwm.errors import GridError, MeshError
+from meshwm.gim.recover import drop_irregular, recover_grid
 from meshwm.gim.remesh import GeometryImage, geometry_image_to_mesh, mesh_to_geometry_image
-from meshwm.gim.recover import GridError, drop_irregular, recover_grid
+from meshwm.mesh.clean import clean_mesh
 from meshwm.message.keying import keyed_permutation, keyed_uniform
 from meshwm.message.mark import _check_bits as check_mark_bits
 from meshwm.message.mark import default_mark
-from meshwm.signal.mask import perceptual_weight
+from meshwm.message.payload import PAYLOAD_BITS, decode_id, encode_id
+from meshwm.message.scramble import arnold_scramble, arnold_unscramble
 from meshwm.metrics import (
     bit_error_rate,
     bounding_box_diagonal,
     correlation2,
-    detection_p_value,
     psnr,
     surface_distance,
 )
 from meshwm.params import CHANNELS, WatermarkParams
-from meshwm.message.payload import PAYLOAD_BITS, decode_id, encode_id
 from meshwm.profiles.robust import ReceivedMesh, embed_gim_robust, fill_missing
-from meshwm.message.scramble import arnold_scramble, arnold_unscramble
+from meshwm.signal.fuzzy import EMBEDDING_CLASSES, strength_class
+from meshwm.signal.mask import perceptual_weight
 from meshwm.signal.wavelet import mrr_decompose, mrr_reconstruct
 
 __all__ = [

@@ -50,9 +50,9 @@ except ImportError:
 from _machine import machine_info  # noqa: E402
 from bench_remesh import boundary_set, floor_once, largest_mesh  # noqa: E402
 
-from meshwm.watermark import embed, extract  # noqa: E402
 from meshwm.mesh.io import read_mesh, write_mesh  # noqa: E402
 from meshwm.message.mark import default_mark  # noqa: E402
+from meshwm.watermark import embed, extract  # noqa: E402
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -3,14 +3,14 @@
 What it measures
 ----------------
 reference
-    ``skfuzzy.control.ControlSystemSimulation`` on ``meshwm.signal.fuzzy.build_control_system()`` with
-    its default options, used the way a per-coefficient loop would use it: set the three inputs,
-    ``compute()``, read ``output["weight"]``, for ``--reference-points`` random points (default
-    300, uniform in [0, 1]^3, after 10 warm-up points).  Per-point time = total / points.
+    ``skfuzzy.control.ControlSystemSimulation`` on ``meshwm.signal.fuzzy.build_control_system()``
+    with its default options, used the way a per-coefficient loop would use it: set the three
+    inputs, ``compute()``, read ``output["weight"]``, for ``--reference-points`` random points
+    (default 300, uniform in [0, 1]^3, after 10 warm-up points).  Per-point time = total / points.
 vectorised
-    ``meshwm.signal.fuzzy.infer_strength`` on ``--points`` random points (default 65,536: one channel of
-    a 256 x 256 geometry image), median wall time of ``--repeats`` runs (default 5) after one
-    warm-up run.  Per-point time = median / points.
+    ``meshwm.signal.fuzzy.infer_strength`` on ``--points`` random points (default 65,536: one
+    channel of a 256 x 256 geometry image), median wall time of ``--repeats`` runs (default 5)
+    after one warm-up run.  Per-point time = median / points.
 agreement
     max |infer_strength - skfuzzy| over the reference points (the tests require <= 1e-9).
 

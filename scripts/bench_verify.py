@@ -96,13 +96,14 @@ except ImportError:
 from _machine import machine_info  # noqa: E402
 
 from meshwm._validate import check_mesh  # noqa: E402
-from meshwm.attacks.library import reorder  # noqa: E402
 from meshwm.apps.batch import Check, run_dask, run_local  # noqa: E402
-from meshwm.watermark import Reader, embed  # noqa: E402
+from meshwm.attacks.library import reorder  # noqa: E402
+from meshwm.errors import GridError  # noqa: E402
+from meshwm.gim.recover import recover_grid  # noqa: E402
 from meshwm.gim.remesh import mesh_to_geometry_image  # noqa: E402
-from meshwm.gim.recover import GridError, recover_grid  # noqa: E402
 from meshwm.mesh.io import read_mesh, write_mesh  # noqa: E402
 from meshwm.params import WatermarkParams  # noqa: E402
+from meshwm.watermark import Reader, embed  # noqa: E402
 
 # --------------------------------------------------------------------------------------------
 # assets

@@ -38,7 +38,7 @@ from pathlib import Path
 KEY = "behaviour-check-key"
 IDENT = "0xC0FFEE42"
 #: JSON fields that differ between runs or between folders, not between behaviours.
-VOLATILE = {"seconds", "input", "output", "timings"}
+VOLATILE = {"seconds", "seconds_geometry_image", "input", "output", "path", "timings"}
 
 
 def _digest(data: bytes) -> str:
@@ -132,7 +132,7 @@ def main(argv: list[str] | None = None) -> int:
         ["git", "-C", str(root), "rev-parse", "--short", "HEAD"], capture_output=True, text=True
     ).stdout.strip()
     print(f"baseline {args.baseline} against the working tree at {head} (+ uncommitted changes)")
-    print(f"| mesh | output | before | after | same |\n|---|---|---|---|---|")
+    print("| mesh | output | before | after | same |\n|---|---|---|---|---|")
     same_all = True
     for mesh in before:
         for name, digest in before[mesh].items():

@@ -6,7 +6,7 @@ is embedded with the key ``pipeline-<name>`` (:func:`meshwm.watermark.embed` wit
 every operation below is applied to the marked mesh and the id is read back blind
 (:func:`meshwm.watermark.extract_id`).  A cell passes ("ok") when the decoded id is the embedded
 one, the bit error rate of the 256 code bits is 0 and the mark is detected
-(:func:`meshwm.metrics.is_detected` at a false-positive rate of 1e-6, Bonferroni-corrected by
+(:func:`meshwm.detect.decide` at a false-positive rate of 1e-6, Bonferroni-corrected by
 the hypotheses extraction tried).
 
 Operations (one row each):
@@ -79,10 +79,10 @@ except ImportError:
 from _machine import machine_info  # noqa: E402
 
 from meshwm.attacks.library import float32, meshlab_laplacian, quantize, reorder, similarity  # noqa: E402
-from meshwm.watermark import embed, extract_id  # noqa: E402
+from meshwm.detect import decide  # noqa: E402
 from meshwm.gim.recover import recover_grid  # noqa: E402
 from meshwm.mesh.io import read_mesh  # noqa: E402
-from meshwm.metrics import is_detected  # noqa: E402
+from meshwm.watermark import embed, extract_id  # noqa: E402
 
 Mesh = tuple[NDArray[np.float64], NDArray[np.int64]]
 
@@ -226,7 +226,7 @@ def judge(v: NDArray, f: NDArray, key: str, ident: bytes) -> dict[str, Any]:
         out.update(ok=False, error=f"{type(exc).__name__}: {str(exc).splitlines()[0][:160]}")
         return out
     r = got.report
-    detected = is_detected(r["p_value"], fpr=FPR, hypotheses=r["hypotheses"])
+    detected = decide(r, fpr=FPR).detected
     out.update(
         id=got.id,
         id_ok=got.id == ident.hex(),

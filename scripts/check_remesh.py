@@ -86,8 +86,8 @@ import numpy as np  # noqa: E402
 import trimesh  # noqa: E402
 from scipy.spatial.transform import Rotation  # noqa: E402
 
-from meshwm.mesh.clean import unique_edges  # noqa: E402
 from meshwm.gim.remesh import geometry_image_to_mesh, mesh_to_geometry_image  # noqa: E402
+from meshwm.mesh.clean import unique_edges  # noqa: E402
 from meshwm.metrics import bounding_box_diagonal, surface_distance  # noqa: E402
 
 HAUSDORFF_TARGET = 1.0  # % of the bounding-box diagonal

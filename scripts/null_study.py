@@ -2,7 +2,7 @@
 
 ``verify`` decides "present" when the binomial p-value of the bit agreement is below
 ``fpr / hypotheses`` (Bonferroni over every grid seed, orientation, N, gain and decoder
-candidate tried; :func:`meshwm.metrics.is_detected`).  That is a false-positive rate of at
+candidate tried; :func:`meshwm.detect.decide`).  That is a false-positive rate of at
 most ``fpr`` only if, on a mesh that does not carry the mark, the agreement counts really are
 Binomial(n, 1/2).  This script measures it on the development meshes, with the same decoder
 ``verify`` runs (:class:`meshwm.watermark.Reader`):
@@ -53,13 +53,13 @@ except ImportError:
 from _machine import machine_info  # noqa: E402
 
 from meshwm.attacks import library as attacks  # noqa: E402
-from meshwm.watermark import Reader, embed  # noqa: E402
+from meshwm.detect import decide, detection_p_value  # noqa: E402
+from meshwm.errors import GridError  # noqa: E402
 from meshwm.gim.remesh import geometry_image_to_mesh, mesh_to_geometry_image  # noqa: E402
-from meshwm.gim.recover import GridError  # noqa: E402
 from meshwm.mesh.io import read_mesh  # noqa: E402
 from meshwm.message.mark import default_mark  # noqa: E402
-from meshwm.metrics import detection_p_value, is_detected  # noqa: E402
 from meshwm.message.payload import PAYLOAD_BITS  # noqa: E402
+from meshwm.watermark import Reader, embed  # noqa: E402
 
 RIGHT_KEY = "meshwm-null-study-right-key"
 #: Hypotheses of a complete unmarked grid read with every decoder candidate (192 grid seeds x
@@ -88,7 +88,7 @@ def _check_mark(reader: Reader, key: str, logo: np.ndarray, fpr: float) -> dict[
         "agree": _agree(r, MARK_BITS),
         "p": r["p_value"],
         "hyp": r["hypotheses"],
-        "detected": is_detected(r["p_value"], fpr=fpr, hypotheses=r["hypotheses"]),
+        "detected": decide(r, fpr=fpr).detected,
     }
 
 
@@ -99,8 +99,7 @@ def _check_id(reader: Reader, key: str, ident: bytes, fpr: float) -> dict[str, A
         "agree": _agree(r, PAYLOAD_BITS),
         "p": r["p_value"],
         "hyp": r["hypotheses"],
-        "detected": got.id == ident.hex()
-        and is_detected(r["p_value"], fpr=fpr, hypotheses=r["hypotheses"]),
+        "detected": decide(r, fpr=fpr, found_id=got.id, expected_id=ident.hex()).detected,
         "any_id": got.id is not None,
     }
 

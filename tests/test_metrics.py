@@ -1,7 +1,6 @@
-"""Tests for :mod:`meshwm.metrics`: PSNR, bit error rate, corr2 and the detection p-value.
+"""Tests for :mod:`meshwm.metrics`: PSNR, bit error rate and corr2.
 
-References are numpy's ``corrcoef`` (for MATLAB's ``corr2``) and scipy's exact
-``binomtest`` (for the binomial tail).
+The reference is numpy's ``corrcoef`` (for MATLAB's ``corr2``).
 """
 
 from __future__ import annotations
@@ -12,9 +11,8 @@ from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 from numpy.testing import assert_allclose
-from scipy.stats import binomtest
 
-from meshwm.metrics import bit_error_rate, correlation2, detection_p_value, psnr
+from meshwm.metrics import bit_error_rate, correlation2, psnr
 
 #: Agreement between two float64 formulas of the same quantity.
 RTOL = 1e-12
@@ -157,32 +155,3 @@ def test_bit_error_rate_is_symmetric():
 def test_bit_error_rate_refuses_mismatched_or_empty(a, b):
     with pytest.raises(ValueError, match="need two non-empty arrays"):
         bit_error_rate(np.zeros(a), np.zeros(b))
-
-
-# --- detection_p_value ---------------------------------------------------------------------
-
-
-@pytest.mark.parametrize(
-    ("agreeing", "total"),
-    [(0, 1), (1, 1), (0, 10), (5, 10), (7, 10), (10, 10), (512, 1024), (600, 1024), (1000, 1024)],
-)
-def test_detection_p_value_is_the_binomial_tail(agreeing, total):
-    expected = binomtest(agreeing, total, 0.5, alternative="greater").pvalue
-    assert_allclose(detection_p_value(agreeing, total), expected, rtol=1e-9, atol=0)
-
-
-def test_detection_p_value_edges():
-    assert detection_p_value(0, 50) == 1.0
-    assert detection_p_value(50, 50) == 0.5**50
-
-
-def test_detection_p_value_falls_as_agreement_grows():
-    # n = 32: every tail, down to 1 - 2**-32, is distinct in float64.
-    p = np.array([detection_p_value(k, 32) for k in range(33)])
-    assert np.all(np.diff(p) < 0)
-
-
-@pytest.mark.parametrize(("agreeing", "total"), [(-1, 10), (11, 10), (0, 0), (1, 0)])
-def test_detection_p_value_refuses_impossible_counts(agreeing, total):
-    with pytest.raises(ValueError, match="need 0 <= agreeing <= total"):
-        detection_p_value(agreeing, total)

@@ -13,13 +13,13 @@ import numpy as np
 import pytest
 from scipy import stats
 
+from meshwm.detect import detection_p_value, is_detected
 from meshwm.gim.remesh import mesh_to_geometry_image
 from meshwm.mesh.io import read_mesh
 from meshwm.message.mark import default_mark
-from meshwm.metrics import detection_p_value, is_detected
+from meshwm.message.scramble import arnold_scramble
 from meshwm.params import WatermarkParams
 from meshwm.profiles.robust import GAINS, extract_gim_robust
-from meshwm.message.scramble import arnold_scramble
 
 ASSETS = Path(__file__).resolve().parent.parent / "assets"
 TRIALS = 2000

@@ -14,15 +14,14 @@ from hypothesis import strategies as st
 from numpy.testing import assert_allclose, assert_array_equal
 from scipy.spatial.transform import Rotation
 
-from meshwm._validate import MeshError
 from meshwm.attacks.library import apply_attack
+from meshwm.detect import decide, detection_p_value
+from meshwm.errors import GridError, MeshError
 from meshwm.mesh.clean import edge_topology_counts, euler_characteristic
-from meshwm.watermark import canonical_frame, embed, embed_gim, extract, extract_gim
-from meshwm.gim.recover import GridError
 from meshwm.message.mark import default_mark
-from meshwm.metrics import detection_p_value
 from meshwm.params import WatermarkParams
 from meshwm.signal.wavelet import mrr_decompose
+from meshwm.watermark import canonical_frame, embed, embed_gim, extract, extract_gim
 
 KEY = "correct horse battery staple"
 P64 = WatermarkParams(size=64)
@@ -456,7 +455,6 @@ def test_id_survives_meshlab_welding(mesh, threshold, request):
     import pymeshlab
 
     from meshwm.watermark import extract_id
-    from meshwm.metrics import is_detected
 
     v, f = request.getfixturevalue(mesh)
     ident = bytes.fromhex("0badc0ffee000001")
@@ -474,4 +472,4 @@ def test_id_survives_meshlab_welding(mesh, threshold, request):
     got = extract_id(wv, wf, key="weld", expected=ident)
     assert got.id == ident.hex()
     assert got.report["ber"] == 0.0
-    assert is_detected(got.report["p_value"], fpr=1e-6, hypotheses=got.report["hypotheses"])
+    assert decide(got.report, fpr=1e-6).detected

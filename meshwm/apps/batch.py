@@ -23,12 +23,11 @@ from typing import Any
 import numpy as np
 
 from meshwm._malloc import keep_freed_memory
-from meshwm._validate import MeshError
-from meshwm.watermark import extract, extract_id
-from meshwm.gim.recover import GridError
+from meshwm.detect import decide
+from meshwm.errors import GridError, MeshError
 from meshwm.mesh.io import READ_SUFFIXES, read_mesh
-from meshwm.metrics import is_detected
 from meshwm.params import WatermarkParams
+from meshwm.watermark import extract, extract_id
 
 __all__ = ["Check", "expand_paths", "run_dask", "run_local", "summarise", "verify_file"]
 
@@ -115,7 +114,7 @@ def verify_file(path: str | os.PathLike, check: Check) -> dict[str, Any]:
             )
             r = found.report
             row.update(p_value=r["p_value"], ber=r["ber"])
-            row["detected"] = is_detected(r["p_value"], fpr=check.fpr, hypotheses=r["hypotheses"])
+            row["detected"] = decide(r, fpr=check.fpr).detected
         else:
             got = extract_id(
                 v,
@@ -129,9 +128,9 @@ def verify_file(path: str | os.PathLike, check: Check) -> dict[str, Any]:
             if check.ident is not None:
                 r = got.report
                 row.update(p_value=r["p_value"], ber=r["ber"])
-                row["detected"] = got.id == check.ident.hex() and is_detected(
-                    r["p_value"], fpr=check.fpr, hypotheses=r["hypotheses"]
-                )
+                row["detected"] = decide(
+                    r, fpr=check.fpr, found_id=got.id, expected_id=check.ident.hex()
+                ).detected
             else:
                 # A valid CRC after Reed-Solomon: chance 6 · 2^-32 for a mesh without an id.
                 row["detected"] = got.id is not None

@@ -42,15 +42,16 @@ import numpy as np
 from numpy.typing import NDArray
 
 from meshwm._atomic import write_atomic
-from meshwm._validate import MeshError
 from meshwm.attacks.library import apply_attack
-from meshwm.watermark import embed, extract
+from meshwm.detect import decide
+from meshwm.errors import GridError, MeshError
+from meshwm.gim.recover import recover_grid
 from meshwm.gim.remesh import geometry_image_to_mesh, mesh_to_geometry_image
-from meshwm.gim.recover import GridError, recover_grid
 from meshwm.mesh.io import READ_SUFFIXES, read_mesh
 from meshwm.message.mark import default_mark
-from meshwm.metrics import is_detected, psnr
+from meshwm.metrics import psnr
 from meshwm.params import WatermarkParams
+from meshwm.watermark import embed, extract
 
 __all__ = [
     "BENCH_FILES",
@@ -436,12 +437,11 @@ def score_extraction(report: dict | None, *, error: str | None = None, fpr: floa
     note = ""
     if not math.isfinite(corr):
         corr, note = 0.0, "extracted mark is constant (corr2 undefined, counted as 0)"
-    hypotheses = int(report.get("hypotheses", 1))
     return {
         "ber": _sig(float(report["ber"])),
         "corr2": _sig(corr),
         "p_value": _sig(float(report["p_value"])),
-        "detected": is_detected(float(report["p_value"]), fpr=fpr, hypotheses=hypotheses),
+        "detected": decide(report, fpr=fpr).detected,
         "note": note,
     }
 

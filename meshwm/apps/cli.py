@@ -19,16 +19,17 @@ from pathlib import Path
 from meshwm import __version__
 from meshwm._malloc import keep_freed_memory
 from meshwm._validate import DEFAULT_MAX_FACES, check_square_pow2
-from meshwm.attacks.library import ATTACK_PARAMS, ATTACKS, apply_attack
 from meshwm.apps.batch import Check, expand_paths, progress_bar, run_dask, run_local, summarise
-from meshwm.watermark import embed, extract, extract_id
+from meshwm.attacks.library import ATTACK_PARAMS, ATTACKS, apply_attack
+from meshwm.detect import decide
+from meshwm.errors import GridError
 from meshwm.gim.remesh import geometry_image_to_mesh, mesh_to_geometry_image
-from meshwm.gim.recover import GridError
 from meshwm.mesh.io import READ_SUFFIXES, WRITE_SUFFIXES, check_output, read_mesh, write_mesh
 from meshwm.message.mark import MARK_SIZE_RANGE, default_mark, load_mark, save_mark
-from meshwm.metrics import is_detected, surface_distance
-from meshwm.params import CHANNELS, DEFAULT_STEP, PROFILES, WatermarkParams
 from meshwm.message.payload import parse_id
+from meshwm.metrics import surface_distance
+from meshwm.params import CHANNELS, DEFAULT_STEP, PROFILES, WatermarkParams
+from meshwm.watermark import embed, extract, extract_id
 
 __all__ = ["main"]
 
@@ -489,7 +490,7 @@ def _run_verify(args: argparse.Namespace) -> int:
 
 
 def _verify_batch(args: argparse.Namespace) -> int:
-    """Many files (or an id): one row per file, a summary, exit 0 / 1 / 2 (see meshwm.apps.batch)."""
+    """Many files (or an id): one row per file, a summary, exit 0 / 1 / 2 (meshwm.apps.batch)."""
     check = Check(
         key=args.key,
         params=_params(args),
@@ -566,7 +567,7 @@ def _verify_one(args: argparse.Namespace) -> int:
     else:
         r = result.report
         report.update(
-            detected=is_detected(r["p_value"], fpr=args.fpr, hypotheses=r["hypotheses"]),
+            detected=decide(r, fpr=args.fpr).detected,
             hypotheses=r["hypotheses"],
             threshold=args.fpr / r["hypotheses"],
             ber=r["ber"],
@@ -620,7 +621,7 @@ def _add_attack_parser(sub: argparse._SubParsersAction) -> None:
         "attack",
         help="apply one attack (smoothing, noise, cropping, simplification, ...) to a mesh",
         description=(
-            "Apply one seeded, deterministic attack from the registry (meshwm.attacks.library.ATTACKS) "
+            "Apply one seeded, deterministic attack from the registry (meshwm.attacks.ATTACKS) "
             "and write the result. gim_* attacks are the paper's, on the geometry image, and "
             "need a mesh written by meshwm."
         ),

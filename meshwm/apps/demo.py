@@ -19,10 +19,10 @@ from PIL import Image, ImageDraw
 
 from meshwm._atomic import write_atomic
 from meshwm.attacks.library import apply_attack
-from meshwm.watermark import embed, extract
+from meshwm.detect import decide
 from meshwm.mesh.io import read_mesh, write_mesh
 from meshwm.message.mark import default_mark, save_mark
-from meshwm.metrics import is_detected
+from meshwm.watermark import embed, extract
 
 __all__ = ["DEMO_ATTACKS", "bundled_mesh_path", "run_demo"]
 
@@ -114,7 +114,7 @@ def run_demo(out: str | os.PathLike, *, echo=print) -> list[dict]:
                 "ber": fr["ber"],
                 "correlation": fr["correlation"],
                 "p_value": fr["p_value"],
-                "detected": is_detected(fr["p_value"], fpr=1e-6, hypotheses=fr["hypotheses"]),
+                "detected": decide(fr).detected,
             }
         )
         panels.append((label, found.mark))

@@ -39,8 +39,9 @@ from scipy.ndimage import correlate
 from scipy.sparse.csgraph import connected_components
 
 from meshwm._validate import check_mesh
+from meshwm.errors import GridError
+from meshwm.gim.recover import recover_grid
 from meshwm.mesh.clean import uniform_smoothing_operator
-from meshwm.gim.recover import GridError, recover_grid
 from meshwm.mesh.io import WRITE_SUFFIXES, read_mesh, write_mesh
 
 __all__ = [

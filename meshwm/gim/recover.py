@@ -86,6 +86,7 @@ from scipy import ndimage
 from scipy.sparse.csgraph import connected_components
 
 from meshwm._validate import check_square_pow2
+from meshwm.errors import GridError
 from meshwm.gim.remesh import code_cells, flipped_cells, grid_faces
 
 __all__ = ["GridError", "RecoveredGrid", "drop_irregular", "recover_grid"]
@@ -106,10 +107,6 @@ _SEEDS = 8  # seeds per component
 _MAX_WALKS = 8  # full propagations tried per piece
 _MAX_PIECES = 6  # pieces read per component (parts connected only across a welded seam)
 _DEPTH = 3  # preferred seeds have this many clean rings of vertices around them
-
-
-class GridError(ValueError):
-    """The mesh is not a geometry-image mesh written by meshwm (no grid could be read)."""
 
 
 class RecoveredGrid(NamedTuple):

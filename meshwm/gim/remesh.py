@@ -55,7 +55,8 @@ import scipy.sparse as sp
 from numpy.typing import NDArray
 from scipy.sparse.csgraph import connected_components, dijkstra
 
-from meshwm._validate import MeshError, check_square_pow2
+from meshwm._validate import check_square_pow2
+from meshwm.errors import MeshError
 from meshwm.mesh.clean import clean_mesh, edge_topology_counts, unique_edges
 
 __all__ = [
@@ -950,8 +951,8 @@ def grid_faces(n: int) -> NDArray[np.int64]:
 
     The flipped code cells change that to 7 and 5 around them.  They are a *position code*:
     the pattern of flipped cells in any patch of a few dozen code cells occurs nowhere else,
-    in no orientation, so blind extraction (:mod:`meshwm.gim.recover`) can tell from any large enough
-    piece of the mesh (a cropped copy, one of several pieces) which grid samples its vertices
+    in no orientation, so blind extraction (:mod:`meshwm.gim.recover`) can tell from any large
+    enough piece of the mesh (a cropped copy, one of several pieces) which grid samples its vertices
     are, and read the rest one triangle at a time.  Only the triangulation of some cells
     changes, not a single sample, so the surface moves by no more than the non-planarity of a
     grid quad.

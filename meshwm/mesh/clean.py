@@ -35,7 +35,8 @@ import scipy.sparse as sp
 from numpy.typing import NDArray
 from scipy.sparse.csgraph import connected_components
 
-from meshwm._validate import MeshError, check_mesh
+from meshwm._validate import check_mesh
+from meshwm.errors import MeshError
 
 __all__ = [
     "CleanMesh",
@@ -468,7 +469,8 @@ def uniform_smoothing_operator(
     """Row-stochastic neighbour-mean matrix M and the mask of vertices that have neighbours.
 
     One step of uniform Laplacian smoothing is ``v += lam * (M @ v - v)`` on those vertices
-    (:func:`meshwm.attacks.library.laplacian`); the robust decoder undoes it (:mod:`meshwm.profiles.robust`).
+    (:func:`meshwm.attacks.library.laplacian`); the robust decoder undoes it
+    (:mod:`meshwm.profiles.robust`).
 
     An interior vertex averages all its edge neighbours.  A boundary vertex (one on an edge of
     a single face) averages only its neighbours along the boundary, so a border is smoothed as

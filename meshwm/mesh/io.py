@@ -32,7 +32,8 @@ import trimesh
 from numpy.typing import NDArray
 
 from meshwm._atomic import write_atomic
-from meshwm._validate import DEFAULT_MAX_FACES, MeshError, check_mesh
+from meshwm._validate import DEFAULT_MAX_FACES, check_mesh
+from meshwm.errors import MeshError
 
 __all__ = [
     "READ_SUFFIXES",

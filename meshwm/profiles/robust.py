@@ -67,11 +67,11 @@ from numpy.typing import NDArray
 from scipy import ndimage
 
 from meshwm.mesh.clean import uniform_smoothing_operator
-from meshwm.signal.fuzzy import strength_class
 from meshwm.message.keying import keyed_permutation, keyed_uniform
-from meshwm.signal.mask import perceptual_weight
 from meshwm.metrics import psnr
 from meshwm.params import WatermarkParams
+from meshwm.signal.fuzzy import strength_class
+from meshwm.signal.mask import perceptual_weight
 
 __all__ = [
     "GAINS",

@@ -105,8 +105,8 @@ import igl
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from meshwm.signal.fuzzy import infer_strength
 from meshwm.gim.remesh import grid_faces
+from meshwm.signal.fuzzy import infer_strength
 
 __all__ = [
     "AREA_FLOOR",
@@ -241,8 +241,8 @@ def perceptual_weight(ca: ArrayLike, *, block: int) -> NDArray[np.float64]:
     -------
     weight : (M // block, M // block) float64 ndarray
         ``infer_strength(*perceptual_inputs(ca, block=block))``, in [0, 1].  Coefficients whose
-        :func:`meshwm.signal.fuzzy.strength_class` is in :data:`meshwm.signal.fuzzy.EMBEDDING_CLASSES`
-        (HIGH or HIGHER) carry watermark bits.
+        :func:`meshwm.signal.fuzzy.strength_class` is in
+        :data:`meshwm.signal.fuzzy.EMBEDDING_CLASSES` (HIGH or HIGHER) carry watermark bits.
 
     Raises
     ------

@@ -1,4 +1,4 @@
-"""Tests for :mod:`meshwm.apps.bench`: the row builders on tiny inputs, and one quick run end to end."""
+"""Tests for :mod:`meshwm.apps.bench`: the row builders on tiny inputs, one quick run end to end."""
 
 from __future__ import annotations
 
@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 
 from meshwm.apps import bench
-from meshwm.attacks.library import ATTACK_PARAMS, ATTACKS
 from meshwm.apps.cli import main
+from meshwm.attacks.library import ATTACK_PARAMS, ATTACKS
 
 REPO = Path(__file__).resolve().parent.parent.parent
 SEED_TABLES = REPO.parent / "shared" / "seed" / "paper_tables.json"

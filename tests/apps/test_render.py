@@ -17,7 +17,6 @@ import pytest
 from PIL import Image
 
 from meshwm.apps.cli import main
-from meshwm.mesh.io import write_mesh
 from meshwm.apps.render import (
     SIZE_RANGE,
     VIEWS_RANGE,
@@ -26,6 +25,7 @@ from meshwm.apps.render import (
     render_views,
     view_azimuths,
 )
+from meshwm.mesh.io import write_mesh
 
 ASSETS = Path(__file__).parent.parent.parent / "assets"
 SPOT = ASSETS / "spot.ply"

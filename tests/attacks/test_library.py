@@ -21,6 +21,7 @@ from numpy.testing import assert_allclose, assert_array_equal
 from scipy.ndimage import correlate
 from scipy.optimize import linprog
 
+from meshwm.apps.cli import main
 from meshwm.attacks.library import (
     ATTACK_PARAMS,
     ATTACKS,
@@ -49,10 +50,10 @@ from meshwm.attacks.library import (
     subdivide_midpoint,
     taubin,
 )
-from meshwm.mesh.clean import unique_edges
-from meshwm.apps.cli import main
+from meshwm.errors import GridError
+from meshwm.gim.recover import recover_grid
 from meshwm.gim.remesh import geometry_image_to_mesh, mesh_to_geometry_image
-from meshwm.gim.recover import GridError, recover_grid
+from meshwm.mesh.clean import unique_edges
 from meshwm.mesh.io import read_mesh, write_mesh
 
 RANDOM = ["similarity", "reorder", "noise", "crop", "gim_salt_pepper", "gim_noise", "gim_crop"]

@@ -17,14 +17,15 @@ from numpy.testing import assert_array_equal
 
 import meshwm.gim.recover as grid_module
 from meshwm.attacks.library import apply_attack, crop
-from meshwm.mesh.clean import clean_mesh
+from meshwm.errors import GridError
+from meshwm.gim.recover import drop_irregular, recover_grid
 from meshwm.gim.remesh import (
     code_cells,
     flipped_cells,
     geometry_image_to_mesh,
     mesh_to_geometry_image,
 )
-from meshwm.gim.recover import GridError, drop_irregular, recover_grid
+from meshwm.mesh.clean import clean_mesh
 
 SIZE = 128
 MESHES = ["spot_mesh", "kitten_mesh", "plane_mesh"]

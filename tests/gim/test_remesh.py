@@ -8,8 +8,7 @@ import trimesh
 from numpy.testing import assert_allclose
 from scipy.spatial.transform import Rotation
 
-from meshwm._validate import MeshError
-from meshwm.mesh.clean import edge_topology_counts
+from meshwm.errors import MeshError
 from meshwm.gim.remesh import (
     code_cells,
     flipped_cells,
@@ -17,6 +16,7 @@ from meshwm.gim.remesh import (
     grid_faces,
     mesh_to_geometry_image,
 )
+from meshwm.mesh.clean import edge_topology_counts
 from meshwm.metrics import bounding_box_diagonal, surface_distance
 
 

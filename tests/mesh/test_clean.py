@@ -1,4 +1,4 @@
-"""Tests for :mod:`meshwm.mesh.clean`: merging, dropping, unpinching, orienting and splitting meshes.
+"""Tests for :mod:`meshwm.mesh.clean`: merging, dropping, unpinching, orienting, splitting meshes.
 
 Real meshes come from ``assets/*.ply`` (and ``../shared/meshes/cow.ply`` when it is there); the
 small ones (tetrahedra, boxes, fans, strips) are built here from exactly representable
@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 from numpy.testing import assert_array_equal
 
-from meshwm._validate import MeshError
+from meshwm.errors import MeshError
 from meshwm.mesh.clean import (
     CleanMesh,
     clean_mesh,

@@ -15,7 +15,7 @@ import trimesh
 from _malformed import CASE_IDS, MUST_FAIL_ON_READ_IDS, MalformedCase, make_malformed_cases
 
 import meshwm.mesh.io as mio
-from meshwm._validate import MeshError
+from meshwm.errors import MeshError
 from meshwm.mesh.io import READ_SUFFIXES, WRITE_SUFFIXES, check_output_suffix, read_mesh, write_mesh
 
 ASSETS = Path(__file__).parent.parent.parent / "assets"

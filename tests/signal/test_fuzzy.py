@@ -1,7 +1,8 @@
-"""Tests for :mod:`meshwm.signal.fuzzy`: the fuzzy perceptual mask (paper section 2, section 3 step 7).
+"""Tests for :mod:`meshwm.signal.fuzzy`: the fuzzy perceptual mask (paper section 2, section 3, 7).
 
 The reference is scikit-fuzzy's own ``ControlSystemSimulation`` run on the control system
-:func:`meshwm.signal.fuzzy.build_control_system` builds from the same description, one point at a time.
+:func:`meshwm.signal.fuzzy.build_control_system` builds from the same description, one point at a
+time.
 """
 
 from __future__ import annotations

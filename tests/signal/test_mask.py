@@ -13,8 +13,8 @@ import pytest
 from numpy.testing import assert_allclose, assert_array_equal
 from scipy.spatial.transform import Rotation
 
-from meshwm.signal.fuzzy import EMBEDDING_CLASSES, infer_strength, strength_class
 from meshwm.gim.remesh import mesh_to_geometry_image
+from meshwm.signal.fuzzy import EMBEDDING_CLASSES, infer_strength, strength_class
 from meshwm.signal.mask import PerceptualInputs, perceptual_inputs, perceptual_weight
 from meshwm.signal.wavelet import mrr_decompose
 

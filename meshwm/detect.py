@@ -1,0 +1,107 @@
+"""The detection decision: a binomial p-value, Bonferroni over the hypotheses tried, one Verdict.
+
+Under the null hypothesis (no mark, or another key) the keyed dither makes every extracted bit a
+fair coin, so the number of bits that agree with the expected message is Binomial(n, 1/2).
+Extraction may try several hypotheses (grid orientations, offsets, sizes, gains, readers) and
+keeps the best; dividing the false-positive budget by their number keeps the overall chance of a
+false "present" on an unmarked mesh below ``fpr``.  Every caller that says "present" or "absent"
+decides here, with :func:`decide`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any, NamedTuple
+
+__all__ = ["DEFAULT_FPR", "Verdict", "decide", "detection_p_value", "is_detected"]
+
+#: The false-positive rate ``verify`` works at unless told otherwise.
+DEFAULT_FPR = 1e-6
+
+
+class Verdict(NamedTuple):
+    """The decision on one extraction.
+
+    Attributes
+    ----------
+    detected : bool
+        ``p_value < threshold`` (and, for an id, the id read back is the one expected).
+    p_value : float
+        The binomial tail of the best hypothesis.
+    hypotheses : int
+        How many hypotheses extraction tried (the Bonferroni factor), at least 1.
+    threshold : float
+        ``fpr / hypotheses``.
+    """
+
+    detected: bool
+    p_value: float
+    hypotheses: int
+    threshold: float
+
+
+def detection_p_value(agreeing: int, total: int) -> float:
+    """P(at least ``agreeing`` of ``total`` fair coin flips come up right): the binomial tail.
+
+    Under the null hypothesis (no mark, or another key) the keyed dither makes every extracted
+    bit a fair coin, so this is the probability of a match at least this good by chance.
+
+    Examples
+    --------
+    >>> detection_p_value(10, 10) == 0.5**10
+    True
+    """
+    from scipy.stats import binom
+
+    if not 0 <= agreeing <= total or total < 1:
+        raise ValueError(f"need 0 <= agreeing <= total and total >= 1, got {agreeing}, {total}")
+    return float(binom.sf(agreeing - 1, total, 0.5))
+
+
+def is_detected(p_value: float, *, fpr: float = DEFAULT_FPR, hypotheses: int = 1) -> bool:
+    """The verify decision: present when ``p_value < fpr / hypotheses`` (Bonferroni).
+
+    Examples
+    --------
+    >>> is_detected(1e-9, fpr=1e-6), is_detected(1e-9, fpr=1e-6, hypotheses=10_000)
+    (True, False)
+    """
+    if not 0.0 < fpr < 1.0:
+        raise ValueError(f"fpr must lie in (0, 1), got {fpr}")
+    if hypotheses < 1:
+        raise ValueError(f"hypotheses must be >= 1, got {hypotheses}")
+    return bool(p_value < fpr / hypotheses)
+
+
+def decide(
+    report: Mapping[str, Any],
+    *,
+    fpr: float = DEFAULT_FPR,
+    found_id: str | None = None,
+    expected_id: str | None = None,
+) -> Verdict:
+    """Decide from an extraction report (its ``p_value`` and ``hypotheses``).
+
+    Parameters
+    ----------
+    report : mapping
+        An extraction report with ``p_value`` and, optionally, ``hypotheses`` (default 1).
+    fpr : float, optional
+        The false-positive rate, in (0, 1).  Default :data:`DEFAULT_FPR`.
+    found_id, expected_id : str or None, optional
+        For an id: the id read back (hex, ``None`` when none decoded) and the one expected.  When
+        ``expected_id`` is given, detection also needs ``found_id == expected_id``.
+
+    Examples
+    --------
+    >>> decide({"p_value": 1e-12, "hypotheses": 100}).detected
+    True
+    >>> decide({"p_value": 1e-12}, found_id=None, expected_id="c0ffee42").detected
+    False
+    """
+    p_value = float(report["p_value"])
+    hypotheses = int(report.get("hypotheses", 1))
+    detected = is_detected(p_value, fpr=fpr, hypotheses=hypotheses)
+    if expected_id is not None:
+        detected = detected and found_id == expected_id
+    return Verdict(detected, p_value, hypotheses, fpr / hypotheses)

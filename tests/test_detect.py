@@ -1,0 +1,67 @@
+"""Tests for :mod:`meshwm.detect`: the binomial p-value, Bonferroni and the Verdict.
+
+The reference is scipy's exact ``binomtest`` (for the binomial tail).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose
+from scipy.stats import binomtest
+
+from meshwm.detect import decide, detection_p_value, is_detected
+
+# --- detection_p_value ---------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("agreeing", "total"),
+    [(0, 1), (1, 1), (0, 10), (5, 10), (7, 10), (10, 10), (512, 1024), (600, 1024), (1000, 1024)],
+)
+def test_detection_p_value_is_the_binomial_tail(agreeing, total):
+    expected = binomtest(agreeing, total, 0.5, alternative="greater").pvalue
+    assert_allclose(detection_p_value(agreeing, total), expected, rtol=1e-9, atol=0)
+
+
+def test_detection_p_value_edges():
+    assert detection_p_value(0, 50) == 1.0
+    assert detection_p_value(50, 50) == 0.5**50
+
+
+def test_detection_p_value_falls_as_agreement_grows():
+    # n = 32: every tail, down to 1 - 2**-32, is distinct in float64.
+    p = np.array([detection_p_value(k, 32) for k in range(33)])
+    assert np.all(np.diff(p) < 0)
+
+
+@pytest.mark.parametrize(("agreeing", "total"), [(-1, 10), (11, 10), (0, 0), (1, 0)])
+def test_detection_p_value_refuses_impossible_counts(agreeing, total):
+    with pytest.raises(ValueError, match="need 0 <= agreeing <= total"):
+        detection_p_value(agreeing, total)
+
+
+# --- decide ---------------------------------------------------------------------------------
+
+
+def test_decide_divides_the_budget_by_the_hypotheses():
+    report = {"p_value": 1e-9, "hypotheses": 100}
+    verdict = decide(report, fpr=1e-6)
+    assert verdict.detected and verdict.threshold == 1e-8 and verdict.hypotheses == 100
+    assert not decide({"p_value": 1e-9, "hypotheses": 10_000}, fpr=1e-6).detected
+    assert decide({"p_value": 1e-9}).hypotheses == 1
+
+
+@pytest.mark.parametrize(
+    ("found", "detected"), [("c0ffee42", True), ("c0ffee43", False), (None, False)]
+)
+def test_decide_needs_the_expected_id(found, detected):
+    report = {"p_value": 1e-30, "hypotheses": 1}
+    assert decide(report, found_id=found, expected_id="c0ffee42").detected is detected
+    assert decide(report, found_id=found).detected  # no id expected: the p-value decides
+
+
+@pytest.mark.parametrize(("fpr", "hypotheses"), [(0.0, 1), (1.0, 1), (1e-6, 0)])
+def test_is_detected_refuses_bad_options(fpr, hypotheses):
+    with pytest.raises(ValueError, match="must"):
+        is_detected(0.5, fpr=fpr, hypotheses=hypotheses)
