@@ -1,49 +1,77 @@
 """meshwm: blind, robust watermarking of 3D triangle meshes through geometry images.
 
-The data flow, one module per stage (imports only go downstream):
+The method follows Tamane & Deshmukh, *Blind 3D model watermarking based on multi-resolution
+representation and fuzzy logic*.  The public API is this module's ``__all__``; the stages live in
+sub-packages (see ``docs/architecture.md``)::
 
-``io`` (files) -> ``clean`` (one manifold component) -> ``geometry_image`` (N×N grid) ->
-``wavelet`` (Haar multi-resolution representation) -> ``fuzzy`` (perceptual mask) ->
-``metrics`` (distances) -> ``cli``;
-the mark itself: ``mark`` (binary images) -> ``scramble`` (Arnold transform).
+    mesh (files, cleaning) -> gim (geometry images, grid recovery) -> signal (wavelets, fuzzy
+    mask) -> message (mark, payload, keying) -> profiles (embed / decode a sampled image) ->
+    readers (received mesh -> sampled image) -> watermark (composition) -> detect (decision)
+    -> apps (cli, batch, demo, render, bench)
+
+Names are imported on first use, so ``import meshwm`` (and ``meshwm --help``) loads no mesh
+library.
+
+Examples
+--------
+>>> import meshwm
+>>> meshwm.WatermarkParams().size
+256
 """
 
-from meshwm.errors import MeshError
-from meshwm.gim.remesh import GeometryImage, geometry_image_to_mesh, mesh_to_geometry_image
-from meshwm.mesh.clean import CleanMesh, clean_mesh
-from meshwm.mesh.io import read_mesh, write_mesh
-from meshwm.message.mark import default_mark, load_mark, save_mark
-from meshwm.message.scramble import arnold_period, arnold_scramble, arnold_unscramble
-from meshwm.signal.fuzzy import infer_strength, strength_class
-from meshwm.signal.wavelet import (
-    dyadic_decompose,
-    dyadic_reconstruct,
-    mrr_decompose,
-    mrr_reconstruct,
-)
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
 
 __version__ = "0.1.0"
 
+#: Public name -> the module that defines it.
+_API = {
+    "embed": "meshwm.watermark",
+    "extract": "meshwm.watermark",
+    "extract_id": "meshwm.watermark",
+    "verify": "meshwm.watermark",
+    "read_mesh": "meshwm.mesh.io",
+    "write_mesh": "meshwm.mesh.io",
+    "WatermarkParams": "meshwm.params",
+    "Verdict": "meshwm.detect",
+    "CapacityError": "meshwm.errors",
+    "GridError": "meshwm.errors",
+    "MeshError": "meshwm.errors",
+}
+
 __all__ = [
-    "CleanMesh",
-    "GeometryImage",
+    "CapacityError",
+    "GridError",
     "MeshError",
+    "Verdict",
+    "WatermarkParams",
     "__version__",
-    "arnold_period",
-    "arnold_scramble",
-    "arnold_unscramble",
-    "clean_mesh",
-    "default_mark",
-    "dyadic_decompose",
-    "dyadic_reconstruct",
-    "geometry_image_to_mesh",
-    "infer_strength",
-    "load_mark",
-    "mesh_to_geometry_image",
-    "mrr_decompose",
-    "mrr_reconstruct",
+    "embed",
+    "extract",
+    "extract_id",
     "read_mesh",
-    "save_mark",
-    "strength_class",
+    "verify",
     "write_mesh",
 ]
+
+if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only
+    from meshwm.detect import Verdict
+    from meshwm.errors import CapacityError, GridError, MeshError
+    from meshwm.mesh.io import read_mesh, write_mesh
+    from meshwm.params import WatermarkParams
+    from meshwm.watermark import embed, extract, extract_id, verify
+
+
+def __getattr__(name: str) -> Any:
+    module = _API.get(name)
+    if module is None:
+        raise AttributeError(f"module 'meshwm' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted([*globals(), *_API])

@@ -63,8 +63,8 @@ from typing import Any, NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from meshwm._validate import check_mesh
-from meshwm.detect import detection_p_value
+from meshwm._validate import DEFAULT_MAX_FACES, check_mesh
+from meshwm.detect import DEFAULT_FPR, Verdict, decide, detection_p_value
 from meshwm.errors import GridError, MeshError
 from meshwm.gim.recover import drop_irregular, recover_grid
 from meshwm.gim.remesh import GeometryImage, geometry_image_to_mesh, mesh_to_geometry_image
@@ -99,6 +99,7 @@ __all__ = [
     "extract",
     "extract_gim",
     "extract_id",
+    "verify",
 ]
 
 #: Level-3 coefficients cover 8×8 samples, 4×4 samples of CA.
@@ -468,7 +469,7 @@ def embed(
     *,
     key: str | bytes,
     params: WatermarkParams | None = None,
-    max_faces: int = 5_000_000,
+    max_faces: int = DEFAULT_MAX_FACES,
     distances: bool = True,
     geometry_image: GeometryImage | None = None,
     ident: bytes | None = None,
@@ -658,7 +659,7 @@ class Reader:
         faces: NDArray,
         *,
         params: WatermarkParams | None = None,
-        max_faces: int = 5_000_000,
+        max_faces: int = DEFAULT_MAX_FACES,
     ) -> None:
         grid, grid_v, grid_f = _read_grid(vertices, faces, max_faces)
         self._setup(grid, grid_v, grid_f, params or WatermarkParams())
@@ -760,7 +761,7 @@ def extract_id(
     key: str | bytes,
     expected: bytes | None = None,
     params: WatermarkParams | None = None,
-    max_faces: int = 5_000_000,
+    max_faces: int = DEFAULT_MAX_FACES,
 ) -> ExtractedId:
     """Blind extraction of an id embedded with ``embed(..., ident=...)``.
 
@@ -789,7 +790,7 @@ def extract(
     mark_size: int = 32,
     expected: NDArray | None = None,
     params: WatermarkParams | None = None,
-    max_faces: int = 5_000_000,
+    max_faces: int = DEFAULT_MAX_FACES,
 ) -> Extracted:
     """Blind extraction from a received mesh: only its geometry, connectivity and the key.
 
@@ -829,3 +830,65 @@ def extract(
     found = reader.extract(key=key, mark_size=mark_size, expected=expected)
     found.report["seconds"] = time.perf_counter() - t0
     return found
+
+
+def verify(
+    vertices: NDArray,
+    faces: NDArray,
+    *,
+    key: str | bytes,
+    mark: NDArray | None = None,
+    ident: bytes | None = None,
+    fpr: float = DEFAULT_FPR,
+    params: WatermarkParams | None = None,
+    max_faces: int = DEFAULT_MAX_FACES,
+) -> Verdict:
+    """Is the mark (or the id) there?  Blind extraction, then :func:`meshwm.detect.decide`.
+
+    Parameters
+    ----------
+    vertices, faces : array_like
+        The received mesh.
+    key : str or bytes
+        The secret key.
+    mark : (k, k) array of 0/1, optional
+        The expected mark (default: the bundled logo, unless ``ident`` is given).
+    ident : bytes, optional
+        The expected 64-bit id (8 bytes, :func:`meshwm.message.payload.parse_id`); detection
+        also needs the id read back to be this one.
+    fpr : float, optional
+        The false-positive rate, divided by the number of hypotheses tried (Bonferroni).
+    params : WatermarkParams, optional
+        As used for embedding.
+    max_faces : int, optional
+        Refuse larger inputs.
+
+    Returns
+    -------
+    meshwm.detect.Verdict
+
+    Raises
+    ------
+    MeshError
+        Unusable mesh arrays.
+    GridError
+        No meshwm grid in the connectivity.
+    """
+    if mark is not None and ident is not None:
+        raise ValueError("give the expected mark or the expected id, not both")
+    if ident is not None:
+        got = extract_id(
+            vertices, faces, key=key, expected=ident, params=params, max_faces=max_faces
+        )
+        return decide(got.report, fpr=fpr, found_id=got.id, expected_id=ident.hex())
+    expected = default_mark(32) if mark is None else check_mark_bits(mark)
+    found = extract(
+        vertices,
+        faces,
+        key=key,
+        mark_size=expected.shape[0],
+        expected=expected,
+        params=params,
+        max_faces=max_faces,
+    )
+    return decide(found.report, fpr=fpr)
