@@ -103,7 +103,7 @@ from meshwm.gim.recover import recover_grid  # noqa: E402
 from meshwm.gim.remesh import mesh_to_geometry_image  # noqa: E402
 from meshwm.mesh.io import read_mesh, write_mesh  # noqa: E402
 from meshwm.params import WatermarkParams  # noqa: E402
-from meshwm.watermark import Reader, embed  # noqa: E402
+from meshwm.watermark import Decoder, embed  # noqa: E402
 
 # --------------------------------------------------------------------------------------------
 # assets
@@ -528,7 +528,7 @@ def breakdown(paths: Sequence[Path], params: WatermarkParams) -> dict[str, Any]:
     fallbacks = 0
     ids: dict[str, str | None] = {}
     warm = read_mesh(paths[0])
-    Reader(*warm, params=params).extract_id(key=KEY)  # warm-up, untimed
+    Decoder(*warm, params=params).extract_id(key=KEY)  # warm-up, untimed
     for p in paths:
         t0 = time.perf_counter()
         v, f = read_mesh(p)
@@ -540,7 +540,7 @@ def breakdown(paths: Sequence[Path], params: WatermarkParams) -> dict[str, Any]:
         except GridError:  # extract_id then cleans or repairs and reads again
             fallbacks += 1
         t3 = time.perf_counter()
-        reader = Reader(cv, cf, params=params)  # the grid again, for the decode below
+        reader = Decoder(cv, cf, params=params)  # the grid again, for the decode below
         t4 = time.perf_counter()
         ids[p.name] = reader.extract_id(key=KEY).id
         t5 = time.perf_counter()

@@ -5,7 +5,7 @@
 candidate tried; :func:`meshwm.detect.decide`).  That is a false-positive rate of at
 most ``fpr`` only if, on a mesh that does not carry the mark, the agreement counts really are
 Binomial(n, 1/2).  This script measures it on the development meshes, with the same decoder
-``verify`` runs (:class:`meshwm.watermark.Reader`):
+``verify`` runs (:class:`meshwm.watermark.Decoder`):
 
 - **raw**: every development mesh as it is (not a meshwm grid), with random keys;
 - **remeshed**: every development mesh remeshed to an unmarked N = 256 geometry image (the
@@ -19,7 +19,7 @@ Binomial(n, 1/2).  This script measures it on the development meshes, with the s
   with ``--wrong-keys`` other keys.
 
 The grid is read and the key-independent part of the decoder is prepared once per mesh
-(``Reader``); each key then runs the whole keyed decoder (gain search, every unsmoothing
+(``Decoder``); each key then runs the whole keyed decoder (gain search, every unsmoothing
 candidate), exactly as ``verify`` would.  Prints the tables, writes ``null.png`` (empirical
 agreement counts next to the binomial, and the p-values against the uniform), ``null.json``
 and ``null.md`` to ``--out``.  Exit 1 if anything is detected.
@@ -59,7 +59,7 @@ from meshwm.gim.remesh import geometry_image_to_mesh, mesh_to_geometry_image  # 
 from meshwm.mesh.io import read_mesh  # noqa: E402
 from meshwm.message.mark import default_mark  # noqa: E402
 from meshwm.message.payload import PAYLOAD_BITS  # noqa: E402
-from meshwm.watermark import Reader, embed  # noqa: E402
+from meshwm.watermark import Decoder, embed  # noqa: E402
 
 RIGHT_KEY = "meshwm-null-study-right-key"
 #: Hypotheses of a complete unmarked grid read with every decoder candidate (192 grid seeds x
@@ -82,7 +82,7 @@ def _agree(report: dict[str, Any], bits: int) -> int:
     return round((1.0 - report["ber"]) * bits)
 
 
-def _check_mark(reader: Reader, key: str, logo: np.ndarray, fpr: float) -> dict[str, Any]:
+def _check_mark(reader: Decoder, key: str, logo: np.ndarray, fpr: float) -> dict[str, Any]:
     r = reader.extract(key=key, mark_size=logo.shape[0], expected=logo).report
     return {
         "agree": _agree(r, MARK_BITS),
@@ -92,7 +92,7 @@ def _check_mark(reader: Reader, key: str, logo: np.ndarray, fpr: float) -> dict[
     }
 
 
-def _check_id(reader: Reader, key: str, ident: bytes, fpr: float) -> dict[str, Any]:
+def _check_id(reader: Decoder, key: str, ident: bytes, fpr: float) -> dict[str, Any]:
     got = reader.extract_id(key=key, expected=ident)
     r = got.report
     return {
@@ -158,7 +158,7 @@ def run_mesh(task: dict[str, Any]) -> dict[str, Any]:
     # every key: the raw meshes are read once each and reported apart from the keyed trials.
     raw: dict[str, Any] = {"grid": False, "detected": 0, "reason": None}
     try:
-        reader = Reader(v, f)
+        reader = Decoder(v, f)
         raw["grid"] = True
         for i in range(task["raw_keys"]):
             c = _check_mark(reader, study_key(seed, "raw", name, i), logo, fpr)
@@ -170,7 +170,7 @@ def run_mesh(task: dict[str, Any]) -> dict[str, Any]:
     uv, uf = geometry_image_to_mesh(
         gi.gim, gi.weld, other_vertices=gi.other_vertices, other_faces=gi.other_faces
     )
-    reader = Reader(uv, uf)
+    reader = Decoder(uv, uf)
     marks, ids = [], []
     for i in range(keys):
         # Separate keys for the two checks: with one key their layouts share the dither, so
@@ -184,7 +184,7 @@ def run_mesh(task: dict[str, Any]) -> dict[str, Any]:
     right = []
     for label, vv, ff in _variants(uv, uf):
         try:
-            r = Reader(vv, ff)
+            r = Decoder(vv, ff)
         except GridError:
             right.append({"variant": label, "grid": False})
             continue
@@ -202,8 +202,8 @@ def run_mesh(task: dict[str, Any]) -> dict[str, Any]:
     ident = study_id(seed, "marked", name)
     marked = embed(v, f, key=RIGHT_KEY, geometry_image=gi, distances=False)
     marked_id = embed(v, f, key=RIGHT_KEY, geometry_image=gi, distances=False, ident=ident)
-    rm = Reader(marked.vertices, marked.faces)
-    ri = Reader(marked_id.vertices, marked_id.faces)
+    rm = Decoder(marked.vertices, marked.faces)
+    ri = Decoder(marked_id.vertices, marked_id.faces)
     out["right_key_on_marked"] = {
         "mark": _check_mark(rm, RIGHT_KEY, logo, fpr),
         "id": _check_id(ri, RIGHT_KEY, ident, fpr),

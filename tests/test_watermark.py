@@ -16,16 +16,21 @@ from scipy.spatial.transform import Rotation
 
 from meshwm.attacks.library import apply_attack
 from meshwm.detect import decide, detection_p_value
-from meshwm.errors import GridError, MeshError
+from meshwm.errors import CapacityError, GridError, MeshError
 from meshwm.mesh.clean import edge_topology_counts, euler_characteristic
 from meshwm.message.mark import default_mark
 from meshwm.params import WatermarkParams
+from meshwm.profiles.paper import PaperOptions
+from meshwm.profiles.paper.scheme import canonical_frame
 from meshwm.signal.wavelet import mrr_decompose
-from meshwm.watermark import canonical_frame, embed, embed_gim, extract, extract_gim
+from meshwm.watermark import embed, embed_gim, extract, extract_gim
 
 KEY = "correct horse battery staple"
 P64 = WatermarkParams(size=64)
 P128 = WatermarkParams(size=128)
+#: The paper's scheme on geometry images (the gim-level tests below).
+PAPER64 = WatermarkParams(profile="paper", size=64)
+PAPER128 = WatermarkParams(profile="paper", size=128)
 #: Level-3 coefficients cover 8×8 samples; the outermost ring of blocks carries nothing.
 BLOCK = 8
 #: Relative change of the level-1 approximation CA that embedding may cause (rounding only).
@@ -37,7 +42,7 @@ FRAME_ATOL = 1e-12
 def _slots(params: WatermarkParams) -> int:
     """Number of (channel, band, position) slots, positions off the outer ring of blocks."""
     m = params.size // BLOCK
-    return len(params.channels) * len(params.bands) * (m - 2) ** 2
+    return len(params.options.channels) * len(params.options.bands) * (m - 2) ** 2
 
 
 def _sheet(rng: np.random.Generator, n: int) -> np.ndarray:
@@ -98,10 +103,10 @@ def sheet64() -> np.ndarray:
 )
 def test_extract_after_embed_is_exact(gim, key, bits):
     bits = np.array(bits, dtype=np.uint8)
-    marked = embed_gim(gim, bits, key=key, params=P64)
+    marked = embed_gim(gim, bits, key=key, params=PAPER64)
     assert marked.report["used_bits"] == len(bits)
-    assert marked.report["carriers_per_bit_min"] >= P64.min_carriers
-    found = extract_gim(marked.vertices, len(bits), key=key, params=P64)
+    assert marked.report["carriers_per_bit_min"] >= PAPER64.options.min_carriers
+    found = extract_gim(marked.marked, len(bits), key=key, params=PAPER64)
     assert_array_equal(found.bits, bits)
     assert_array_equal(np.sign(found.confidence), np.where(bits == 1, 1.0, -1.0))
 
@@ -118,17 +123,17 @@ def test_top_up_carriers_survive_rounding(tilt, key):
     exact, with every carrier voting fully (confidence +-1, as :class:`Extracted` states)."""
     gim = _plane(tilt)
     bits = np.random.default_rng(144).integers(0, 2, size=144)
-    marked = embed_gim(gim, bits, key=key, params=P64)
-    found = extract_gim(marked.vertices, 144, key=key, params=P64)
+    marked = embed_gim(gim, bits, key=key, params=PAPER64)
+    found = extract_gim(marked.marked, 144, key=key, params=PAPER64)
     assert_array_equal(found.bits, bits)
     assert_allclose(np.abs(found.confidence), 1.0, rtol=0, atol=1e-9)
 
 
 def test_wrong_key_reads_noise(sheet128):
     bits = np.random.default_rng(1).integers(0, 2, size=1024)
-    marked = embed_gim(sheet128, bits, key=KEY, params=P128).vertices
-    right = extract_gim(marked, 1024, key=KEY, params=P128).bits
-    wrong = extract_gim(marked, 1024, key=KEY + "!", params=P128).bits
+    marked = embed_gim(sheet128, bits, key=KEY, params=PAPER128).marked
+    right = extract_gim(marked, 1024, key=KEY, params=PAPER128).bits
+    wrong = extract_gim(marked, 1024, key=KEY + "!", params=PAPER128).bits
     assert_array_equal(right, bits)
     assert 0.25 <= np.mean(wrong != bits) <= 0.75
 
@@ -136,10 +141,10 @@ def test_wrong_key_reads_noise(sheet128):
 @pytest.mark.parametrize("scale", [0.01, 100.0])
 def test_extraction_ignores_pose_and_scale(sheet64, scale):
     bits = np.random.default_rng(2).integers(0, 2, size=100)
-    marked = embed_gim(sheet64, bits, key=KEY, params=P64).vertices
+    marked = embed_gim(sheet64, bits, key=KEY, params=PAPER64).marked
     rot = _random_rotation(3)
     moved = scale * marked @ rot.T + np.array([5.0, -7.0, 11.0])
-    assert_array_equal(extract_gim(moved, 100, key=KEY, params=P64).bits, bits)
+    assert_array_equal(extract_gim(moved, 100, key=KEY, params=PAPER64).bits, bits)
 
 
 def test_outer_blocks_are_bit_identical_and_ca_is_kept(sheet64):
@@ -147,7 +152,7 @@ def test_outer_blocks_are_bit_identical_and_ca_is_kept(sheet64):
     bits, and the level-1 approximation CA, which the frame and the mask come from, does not
     move beyond rounding."""
     bits = np.random.default_rng(4).integers(0, 2, size=144)
-    marked = embed_gim(sheet64, bits, key=KEY, params=P64).vertices
+    marked = embed_gim(sheet64, bits, key=KEY, params=PAPER64).marked
     outer = np.ones((64, 64), dtype=bool)
     outer[BLOCK:-BLOCK, BLOCK:-BLOCK] = False
     assert_array_equal(marked[outer], sheet64[outer])
@@ -160,16 +165,16 @@ def test_outer_blocks_are_bit_identical_and_ca_is_kept(sheet64):
 
 def test_embedding_does_not_modify_its_input(sheet64):
     cover = sheet64.copy()
-    embed_gim(cover, np.ones(32, dtype=np.uint8), key=KEY, params=P64)
+    embed_gim(cover, np.ones(32, dtype=np.uint8), key=KEY, params=PAPER64)
     assert_array_equal(cover, sheet64)
 
 
 @pytest.mark.parametrize("channels", [("x", "y"), ("x", "y", "z"), ("z",)])
 def test_payload_up_to_one_slot_per_bit_fits(sheet64, channels):
-    params = WatermarkParams(size=64, channels=channels)
+    params = WatermarkParams(profile="paper", size=64, options=PaperOptions(channels=channels))
     slots = _slots(params)
     bits = np.random.default_rng(5).integers(0, 2, size=slots)
-    marked = embed_gim(sheet64, bits, key=KEY, params=params).vertices
+    marked = embed_gim(sheet64, bits, key=KEY, params=params).marked
     # One carrier per bit: still exact with no attack.
     assert_array_equal(extract_gim(marked, slots, key=KEY, params=params).bits, bits)
     with pytest.raises(ValueError, match="do not fit"):
@@ -197,9 +202,9 @@ def _with_nan(gim):
 def test_bad_geometry_image_is_refused(sheet64, make, match):
     bad = make(sheet64)
     with pytest.raises(ValueError, match=match):
-        embed_gim(bad, np.ones(16, dtype=np.uint8), key=KEY, params=P64)
+        embed_gim(bad, np.ones(16, dtype=np.uint8), key=KEY, params=PAPER64)
     with pytest.raises(ValueError, match=match):
-        extract_gim(bad, 16, key=KEY, params=P64)
+        extract_gim(bad, 16, key=KEY, params=PAPER64)
 
 
 @pytest.mark.parametrize(
@@ -214,18 +219,18 @@ def test_bad_geometry_image_is_refused(sheet64, make, match):
 )
 def test_bad_bits_are_refused(sheet64, bits, match):
     with pytest.raises(ValueError, match=match):
-        embed_gim(sheet64, bits, key=KEY, params=P64)
+        embed_gim(sheet64, bits, key=KEY, params=PAPER64)
 
 
 @pytest.mark.parametrize("n_bits", [0, -3, True, 2.0])
 def test_bad_bit_count_is_refused(sheet64, n_bits):
     with pytest.raises(ValueError, match="n_bits must be a positive integer"):
-        extract_gim(sheet64, n_bits, key=KEY, params=P64)
+        extract_gim(sheet64, n_bits, key=KEY, params=PAPER64)
 
 
 def test_single_point_geometry_image_is_refused():
     with pytest.raises(MeshError, match="single point"):
-        embed_gim(np.ones((64, 64, 3)), np.ones(16, dtype=np.uint8), key=KEY, params=P64)
+        embed_gim(np.ones((64, 64, 3)), np.ones(16, dtype=np.uint8), key=KEY, params=PAPER64)
 
 
 # --- canonical frame --------------------------------------------------------------------------
@@ -421,16 +426,16 @@ def test_closed_genus_one_stays_watertight(marked_kitten, kitten_mesh):
     assert found.report["ber"] == 0.0
 
 
-def test_reader_decodes_many_keys_like_extract(spot_mesh):
-    """One Reader, several keys: the same results as a fresh extract per key."""
-    from meshwm.watermark import Reader, extract, extract_id
+def test_decoder_decodes_many_keys_like_extract(spot_mesh):
+    """One Decoder, several keys: the same results as a fresh extract per key."""
+    from meshwm.watermark import Decoder, extract, extract_id
 
     v, f = spot_mesh
     p = WatermarkParams(size=64)
     logo = default_mark(8)
     marked = embed(v, f, logo, key="right", params=p, distances=False)
-    reader = Reader(marked.vertices, marked.faces, params=p)
-    assert reader.grid.n == 64
+    reader = Decoder(marked.vertices, marked.faces, params=p)
+    assert reader.image.n == 64 and reader.image.reader == "connectivity"
     for key in ("right", "wrong", "right"):
         a = reader.extract(key=key, mark_size=8, expected=logo)
         b = extract(marked.vertices, marked.faces, key=key, mark_size=8, expected=logo, params=p)
@@ -440,7 +445,7 @@ def test_reader_decodes_many_keys_like_extract(spot_mesh):
     assert reader.extract(key="right", mark_size=8, expected=logo).report["ber"] == 0.0
     ident = bytes.fromhex("00112233445566ff")
     with_id = embed(v, f, key="right", params=p, distances=False, ident=ident)
-    reader = Reader(with_id.vertices, with_id.faces, params=p)
+    reader = Decoder(with_id.vertices, with_id.faces, params=p)
     assert reader.extract_id(key="right").id == ident.hex()
     assert reader.extract_id(key="wrong").id is None
     assert extract_id(with_id.vertices, with_id.faces, key="right", params=p).id == ident.hex()
@@ -473,3 +478,26 @@ def test_id_survives_meshlab_welding(mesh, threshold, request):
     assert got.id == ident.hex()
     assert got.report["ber"] == 0.0
     assert decide(got.report, fpr=1e-6).detected
+
+
+# --- profiles through the composition ---------------------------------------------------------
+
+
+@pytest.mark.parametrize("profile", ["robust", "paper"])
+def test_embed_gim_runs_the_profile_asked_for(sheet64, profile):
+    """``embed_gim`` dispatches on ``params.profile`` (it once ran the paper's scheme always)."""
+    params = WatermarkParams(profile=profile, size=64)
+    bits = np.random.default_rng(11).integers(0, 2, size=64).astype(np.uint8)
+    marked = embed_gim(sheet64, bits, key=KEY, params=params)
+    assert ("distortion" in marked.report) is (profile == "robust")
+    assert ("frame_conditioning" in marked.report) is (profile == "paper")
+    assert_array_equal(marked.cover, sheet64)
+    assert_allclose(marked.cover + marked.changes, marked.marked, rtol=0, atol=1e-12)
+    assert_array_equal(extract_gim(marked.marked, 64, key=KEY, params=params).bits, bits)
+
+
+@pytest.mark.parametrize("profile", ["robust", "paper"])
+def test_a_payload_that_does_not_fit_raises_capacity_error(sheet64, profile):
+    params = WatermarkParams(profile=profile, size=64)
+    with pytest.raises(CapacityError, match="do not fit"):
+        embed_gim(sheet64, np.zeros(100_000, dtype=np.uint8), key=KEY, params=params)

@@ -1,1 +1,64 @@
-"""TODO"""
+"""Readers: a received mesh -> a sampled geometry image, blind.
+
+A reader re-derives the geometry image from the received mesh alone (and the public
+parameters): which samples it has, which it lost, and how many hypotheses finding them took,
+which the detection decision counts.  The decoder of every profile takes its output
+(:class:`~meshwm.readers.base.SampledImage`).  Readers are tried in the order of
+:data:`READERS`; the first that finds an image wins.
+
+To add a reader: one module with a function ``read_x(vertices, faces, *, max_faces) ->
+SampledImage`` that raises :class:`meshwm.errors.GridError` when it finds nothing, and one
+entry in :data:`READERS`.
+"""
+
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING
+
+from meshwm._validate import DEFAULT_MAX_FACES
+from meshwm.errors import GridError
+
+if TYPE_CHECKING:  # pragma: no cover
+    from numpy.typing import NDArray
+
+    from meshwm.readers.base import Reader, SampledImage
+
+__all__ = ["READERS", "get_reader", "read_received"]
+
+#: Blind readers, in the order they are tried: name -> "module:function".
+READERS: dict[str, str] = {
+    "connectivity": "meshwm.readers.connectivity:read_connectivity",
+}
+
+
+def get_reader(name: str) -> Reader:
+    """The reader called ``name`` (a key of :data:`READERS`)."""
+    if name not in READERS:
+        raise ValueError(f"unknown reader {name!r}; valid: {', '.join(READERS)}")
+    module, function = READERS[name].split(":")
+    reader: Reader = getattr(importlib.import_module(module), function)
+    return reader
+
+
+def read_received(
+    vertices: NDArray, faces: NDArray, *, max_faces: int = DEFAULT_MAX_FACES
+) -> SampledImage:
+    """The geometry image of a received mesh, from the first reader in :data:`READERS` that
+    finds one.
+
+    Raises
+    ------
+    MeshError
+        Unusable mesh arrays.
+    GridError
+        No reader found a geometry image (the first reader's message).
+    """
+    first: GridError | None = None
+    for name in READERS:
+        try:
+            return get_reader(name)(vertices, faces, max_faces=max_faces)
+        except GridError as exc:
+            first = first or exc
+    assert first is not None  # READERS is not empty
+    raise first

@@ -73,7 +73,6 @@ from __future__ import annotations
 from collections.abc import Mapping
 
 import numpy as np
-import pywt
 from numpy.typing import NDArray
 
 __all__ = [
@@ -157,6 +156,8 @@ def mrr_decompose(matrix: NDArray) -> dict[str, NDArray[np.float64]]:
     >>> round(float(sum((c**2).sum() for c in coeffs.values())), 6) == float((x**2).sum())
     True
     """
+    import pywt  # imported on use: the constants above are needed without it
+
     x = _check_matrix(matrix, level=_MRR_LEVEL, name="matrix")
     nodes = {"": x}
     for path in _MRR_SPLIT:
@@ -211,6 +212,8 @@ def mrr_reconstruct(coeffs: Mapping[str, NDArray]) -> NDArray[np.float64]:
     >>> round(float(np.linalg.norm(mrr_reconstruct(coeffs) - x)), 12)
     0.5
     """
+    import pywt  # imported on use: the constants above are needed without it
+
     leaves = _check_coeffs(coeffs, MRR_KEYS, name="coeffs")
     side = leaves["a"].shape[0] * 2
     _check_shapes(leaves, {key: side >> len(key) for key in MRR_KEYS}, side, _MRR_LEVEL)
@@ -270,6 +273,8 @@ def dyadic_decompose(matrix: NDArray, *, level: int = 3) -> dict[str, NDArray[np
     >>> coeffs["a3"].shape, coeffs["d1"].shape, round(float(coeffs["a3"][0, 0]), 12)
     ((2, 2), (8, 8), 8.0)
     """
+    import pywt  # imported on use: the constants above are needed without it
+
     level = _check_level(level)
     x = _check_matrix(matrix, level=level, name="matrix")
     approx, *details = pywt.wavedec2(x, _WAVELET, mode=_MODE, level=level)
@@ -308,6 +313,8 @@ def dyadic_reconstruct(coeffs: Mapping[str, NDArray]) -> NDArray[np.float64]:
     >>> bool(np.allclose(dyadic_reconstruct(dyadic_decompose(x)), x, rtol=0, atol=1e-12))
     True
     """
+    import pywt  # imported on use: the constants above are needed without it
+
     if not isinstance(coeffs, Mapping):
         raise TypeError(f"coeffs must be a dict of subbands, got {type(coeffs).__name__}")
     approx = [key for key in coeffs if isinstance(key, str) and _is_approx_key(key)]

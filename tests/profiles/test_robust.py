@@ -7,14 +7,11 @@ import pytest
 from scipy import ndimage
 from scipy.spatial.transform import Rotation
 
-from meshwm.params import WatermarkParams
-from meshwm.profiles.robust import (
-    embed_gim_robust,
-    extract_gim_robust,
-    fill_missing,
-    local_frames,
-    normal_distortion,
-)
+from meshwm.profiles.robust.decode import extract_gim_robust
+from meshwm.profiles.robust.embed import embed_gim_robust, normal_distortion
+from meshwm.profiles.robust.options import RobustOptions
+from meshwm.profiles.robust.slots import local_frames
+from meshwm.signal.fill import fill_missing
 
 
 def _surface(n: int, seed: int = 0) -> np.ndarray:
@@ -30,8 +27,11 @@ def _bits(k: int, seed: int = 1) -> np.ndarray:
     return np.random.default_rng(seed).integers(0, 2, size=k).astype(np.uint8)
 
 
-def _params(n: int, **kw) -> WatermarkParams:
-    return WatermarkParams(profile="robust", size=n, **kw)
+def _params(n: int, **kw) -> RobustOptions:
+    """The robust options for an n-sample grid (n is implied by the image; kept for reading)."""
+    if "step" in kw:
+        kw["tangential_step"] = kw.pop("step")
+    return RobustOptions(**kw)
 
 
 @pytest.mark.parametrize("n, k", [(64, 16), (128, 64), (128, 256), (256, 1024)])
@@ -40,8 +40,8 @@ def test_round_trip_exact(n, k, key):
     gim = _surface(n)
     bits = _bits(k)
     p = _params(n)
-    marked = embed_gim_robust(gim, bits, key=key, params=p).gim
-    out = extract_gim_robust(marked, k, key=key, params=p)
+    marked = embed_gim_robust(gim, bits, key=key, options=p).gim
+    out = extract_gim_robust(marked, k, key=key, options=p)
     assert out.bits.tolist() == bits.tolist()
     assert np.all(out.confidence[bits == 1] > 0.5) and np.all(out.confidence[bits == 0] < -0.5)
 
@@ -51,27 +51,27 @@ def test_calibration_reaches_the_target_and_extraction_needs_no_step(distortion)
     gim = _surface(256, seed=11)
     bits = _bits(1024, seed=12)
     p = _params(256, distortion=distortion)
-    res = embed_gim_robust(gim, bits, key="k", params=p)
+    res = embed_gim_robust(gim, bits, key="k", options=p)
     assert normal_distortion(gim, res.gim) == pytest.approx(distortion, rel=0.05)
     assert res.report["distortion"] == pytest.approx(distortion, rel=0.05)
-    out = extract_gim_robust(res.gim, 1024, key="k", params=_params(256))
+    out = extract_gim_robust(res.gim, 1024, key="k", options=_params(256))
     assert out.bits.tolist() == bits.tolist()
 
 
 def test_explicit_step_is_used_as_given():
     gim = _surface(128)
     p = _params(128, step=0.03)
-    res = embed_gim_robust(gim, _bits(64), key="k", params=p)
+    res = embed_gim_robust(gim, _bits(64), key="k", options=p)
     assert res.report["step"] == 0.03
-    assert extract_gim_robust(res.gim, 64, key="k", params=p).bits.tolist() == _bits(64).tolist()
-    assert embed_gim_robust(gim, _bits(64), key="k", params=_params(128, step=0.06)).report[
+    assert extract_gim_robust(res.gim, 64, key="k", options=p).bits.tolist() == _bits(64).tolist()
+    assert embed_gim_robust(gim, _bits(64), key="k", options=_params(128, step=0.06)).report[
         "distortion"
     ] == pytest.approx(2 * res.report["distortion"], rel=0.1)
 
 
 def test_border_samples_do_not_move():
     gim = _surface(128)
-    marked = embed_gim_robust(gim, _bits(64), key="k", params=_params(128)).gim
+    marked = embed_gim_robust(gim, _bits(64), key="k", options=_params(128)).gim
     assert np.array_equal(marked[[0, -1]], gim[[0, -1]])
     assert np.array_equal(marked[:, [0, -1]], gim[:, [0, -1]])
     assert not np.array_equal(marked, gim)
@@ -81,26 +81,26 @@ def test_similarity_transform_reads_the_same():
     gim = _surface(128, seed=3)
     bits = _bits(256, seed=4)
     p = _params(128)
-    marked = embed_gim_robust(gim, bits, key="k", params=p).gim
+    marked = embed_gim_robust(gim, bits, key="k", options=p).gim
     rot = Rotation.from_euler("xyz", [0.3, -1.1, 2.0]).as_matrix()
     moved = 37.5 * marked @ rot.T + np.array([5.0, -2.0, 100.0])
-    assert extract_gim_robust(moved, 256, key="k", params=p).bits.tolist() == bits.tolist()
+    assert extract_gim_robust(moved, 256, key="k", options=p).bits.tolist() == bits.tolist()
 
 
 def test_wrong_key_reads_noise():
     gim = _surface(256)
     bits = _bits(1024)
     p = _params(256)
-    marked = embed_gim_robust(gim, bits, key="right", params=p).gim
-    wrong = extract_gim_robust(marked, 1024, key="wrong", params=p).bits
+    marked = embed_gim_robust(gim, bits, key="right", options=p).gim
+    wrong = extract_gim_robust(marked, 1024, key="wrong", options=p).bits
     assert 0.4 < np.mean(wrong != bits) < 0.6
 
 
 def test_deterministic_bytes():
     gim = _surface(128)
     p = _params(128)
-    a = embed_gim_robust(gim, _bits(64), key="k", params=p).gim
-    b = embed_gim_robust(gim.copy(), _bits(64), key="k", params=p).gim
+    a = embed_gim_robust(gim, _bits(64), key="k", options=p).gim
+    b = embed_gim_robust(gim.copy(), _bits(64), key="k", options=p).gim
     assert a.tobytes() == b.tobytes()
 
 
@@ -108,28 +108,28 @@ def test_smoothing_is_survived_by_the_gain_search():
     gim = _surface(256, seed=5)
     bits = _bits(1024, seed=6)
     p = _params(256)
-    marked = embed_gim_robust(gim, bits, key="k", params=p).gim
+    marked = embed_gim_robust(gim, bits, key="k", options=p).gim
     blurred = np.stack(
         [ndimage.gaussian_filter(marked[..., c], 1.5, mode="nearest") for c in range(3)], -1
     )
-    out = extract_gim_robust(blurred, 1024, key="k", params=p)
+    out = extract_gim_robust(blurred, 1024, key="k", options=p)
     assert out.report["gain"] < 0.99 * embedded_gain(gim, bits, p)  # the search saw the blur
     assert np.mean(out.bits != bits) < 0.05
 
 
 def embedded_gain(gim, bits, p):
-    marked = embed_gim_robust(gim, bits, key="k", params=p).gim
-    return extract_gim_robust(marked, len(bits), key="k", params=p).report["gain"]
+    marked = embed_gim_robust(gim, bits, key="k", options=p).gim
+    return extract_gim_robust(marked, len(bits), key="k", options=p).report["gain"]
 
 
 def test_missing_samples_are_erasures():
     gim = _surface(256, seed=7)
     bits = _bits(1024, seed=8)
     p = _params(256)
-    marked = embed_gim_robust(gim, bits, key="k", params=p).gim
+    marked = embed_gim_robust(gim, bits, key="k", options=p).gim
     cropped = marked.copy()
     cropped[:, 180:] = np.nan  # about 30 % of the samples lost
-    out = extract_gim_robust(cropped, 1024, key="k", params=p)
+    out = extract_gim_robust(cropped, 1024, key="k", options=p)
     assert out.report["missing"] == pytest.approx(76 / 256)
     assert np.mean(out.bits != bits) < 0.05
 
@@ -162,7 +162,7 @@ def test_degenerate_positions_carry_nothing():
     gim = _surface(64)
     gim[:, :, :] = gim[:, :1, :]  # every column the same: tangent along j vanishes
     p = _params(64)
-    res = embed_gim_robust(gim, _bits(16), key="k", params=p)
+    res = embed_gim_robust(gim, _bits(16), key="k", options=p)
     assert res.report["carriers"] == 0
     assert np.array_equal(res.gim, gim)
 
@@ -180,24 +180,25 @@ def test_degenerate_positions_carry_nothing():
 def test_bad_input(gim, k, match):
     p = _params(64)
     with pytest.raises(ValueError, match=match):
-        extract_gim_robust(gim, k, key="k", params=p)
+        extract_gim_robust(gim, k, key="k", options=p)
 
 
 def test_embed_refuses_nan_cover():
     gim = _surface(64)
     gim[5, 5, 0] = np.nan
     with pytest.raises(ValueError, match="NaN"):
-        embed_gim_robust(gim, _bits(16), key="k", params=_params(64))
+        embed_gim_robust(gim, _bits(16), key="k", options=_params(64))
 
 
 def test_gain_search_matches_the_plain_loop():
     """The vectorised float32 score search picks the gain a float64 loop over GAINS picks."""
-    from meshwm.profiles.robust import _FINE, GAINS, _layout, _scores, prepare_gim_robust
+    from meshwm.profiles.robust.decode import _FINE, GAINS, _scores, prepare_gim_robust
+    from meshwm.profiles.robust.slots import _layout
 
     gim = _surface(128, seed=3)
     bits = _bits(64, seed=4)
     p = _params(128)
-    marked = embed_gim_robust(gim, bits, key="k", params=p).gim
+    marked = embed_gim_robust(gim, bits, key="k", options=p).gim
     noisy = marked + np.random.default_rng(0).normal(0, 2e-3, marked.shape)
 
     def plain(prep, layout, gains):
@@ -208,7 +209,7 @@ def test_gain_search_matches_the_plain_loop():
         return np.array(out)
 
     for received, key in ((marked, "k"), (noisy, "k"), (marked, "other")):
-        prep = prepare_gim_robust(received, params=p)
+        prep = prepare_gim_robust(received, options=p)
         layout = _layout(128, key, 64)
         fast = _scores(prep.x, prep.weight, layout, GAINS)
         np.testing.assert_allclose(fast, plain(prep, layout, GAINS), rtol=1e-5)
@@ -218,16 +219,16 @@ def test_gain_search_matches_the_plain_loop():
 
 
 def test_prepared_decoding_equals_one_shot_extraction():
-    from meshwm.profiles.robust import decode_robust, prepare_gim_robust
+    from meshwm.profiles.robust.decode import decode_robust, prepare_gim_robust
 
     gim = _surface(128, seed=7)
     bits = _bits(64, seed=8)
     p = _params(128)
-    marked = embed_gim_robust(gim, bits, key="k", params=p).gim
+    marked = embed_gim_robust(gim, bits, key="k", options=p).gim
     marked[40:60, 10:30] = np.nan  # a crop
-    prep = prepare_gim_robust(marked, params=p)
+    prep = prepare_gim_robust(marked, options=p)
     for key in ("k", "x", "y"):
-        one = extract_gim_robust(marked, 64, key=key, params=p)
+        one = extract_gim_robust(marked, 64, key=key, options=p)
         two = decode_robust(prep, 64, key=key)
         assert one.bits.tolist() == two.bits.tolist()
         np.testing.assert_array_equal(one.confidence, two.confidence)
@@ -235,21 +236,22 @@ def test_prepared_decoding_equals_one_shot_extraction():
     assert np.mean(decode_robust(prep, 64, key="k").bits != bits) < 0.05
 
 
-def test_received_mesh_decodes_many_keys_like_fresh_extractions():
-    """ReceivedMesh prepares each candidate once and gives what extract_mesh_robust gives."""
+def test_candidates_decode_many_keys_like_fresh_candidates():
+    """Candidates prepare each image once and give what a fresh Candidates gives."""
     from meshwm.gim.remesh import geometry_image_to_mesh
-    from meshwm.profiles.robust import ReceivedMesh, extract_mesh_robust
+    from meshwm.profiles.robust.search import Candidates
+    from meshwm.readers.connectivity import read_connectivity
 
     n = 64
     gim = _surface(n, seed=9)
     p = _params(n)
-    marked = embed_gim_robust(gim, _bits(16), key="k", params=p).gim
+    marked = embed_gim_robust(gim, _bits(16), key="k", options=p).gim
     v, f = geometry_image_to_mesh(marked)
-    index = np.arange(n * n).reshape(n, n)
-    received = ReceivedMesh(v, f, index, params=p)
+    image = read_connectivity(v, f)
+    received = Candidates(image, options=p)
     for key in ("k", "wrong", "k"):
         a = received.decode(16, key=key)
-        b = extract_mesh_robust(v, f, index, 16, key=key, params=p)
+        b = Candidates(image, options=p).decode(16, key=key)
         assert a.bits.tolist() == b.bits.tolist()
         assert a.report == b.report
     assert received.decode(16, key="k").bits.tolist() == _bits(16).tolist()

@@ -1,0 +1,49 @@
+"""The robust profile as a :class:`meshwm.profiles.base.Profile`."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from meshwm.profiles.base import Decoded, Embedding
+from meshwm.profiles.robust.embed import embed_gim_robust
+from meshwm.profiles.robust.options import RobustOptions
+from meshwm.profiles.robust.search import Candidates
+from meshwm.readers.base import SampledImage
+
+__all__ = ["PROFILE", "RobustProfile"]
+
+
+class RobustProfile:
+    """meshwm's default scheme for real pipelines (:mod:`meshwm.profiles.robust`)."""
+
+    name = "robust"
+    options_type = RobustOptions
+
+    def embed(
+        self,
+        gim: NDArray[np.float64],
+        bits: NDArray[np.uint8],
+        *,
+        key: str | bytes,
+        options: RobustOptions | None = None,
+    ) -> Embedding:
+        """Embed ``bits`` (:func:`meshwm.profiles.robust.embed.embed_gim_robust`)."""
+        res = embed_gim_robust(gim, bits, key=key, options=options)
+        assert res.gim is not None  # embedding always returns the marked image
+        return Embedding(np.asarray(gim, dtype=np.float64), res.gim, res.report)
+
+    def prepare(self, image: SampledImage, *, options: RobustOptions | None = None) -> Candidates:
+        """The candidates a received image offers (:class:`~.search.Candidates`)."""
+        return Candidates(image, options=options)
+
+    def decode(self, prepared: Any, n_bits: int, *, key: str | bytes) -> Decoded:
+        """Soft bits from the best candidate."""
+        res = prepared.decode(n_bits, key=key)
+        return Decoded(res.bits, res.confidence, res.report)
+
+
+#: The registered instance.
+PROFILE = RobustProfile()

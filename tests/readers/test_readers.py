@@ -1,0 +1,70 @@
+"""Tests for :mod:`meshwm.readers`: the registry and the connectivity reader."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose, assert_array_equal
+
+from meshwm.errors import GridError, MeshError
+from meshwm.gim.remesh import geometry_image_to_mesh
+from meshwm.mesh.clean import uniform_smoothing_operator
+from meshwm.readers import READERS, get_reader, read_received
+from meshwm.readers.connectivity import UNSMOOTH_LAMBDA, UNSMOOTH_STEPS, read_connectivity
+
+
+def _sheet(n: int = 64) -> np.ndarray:
+    i, j = np.meshgrid(np.linspace(0, 1, n), np.linspace(0, 1, n), indexing="ij")
+    return np.stack([i, j, 0.1 * np.sin(6 * i) * np.cos(5 * j)], axis=-1)
+
+
+def test_registry_lists_the_connectivity_reader_first():
+    assert next(iter(READERS)) == "connectivity"
+    assert get_reader("connectivity") is read_connectivity
+    with pytest.raises(ValueError, match="unknown reader 'x'; valid: connectivity"):
+        get_reader("x")
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_connectivity_reader_gives_the_samples_under_any_vertex_order(seed):
+    gim = _sheet()
+    v, f = geometry_image_to_mesh(gim)
+    rng = np.random.default_rng(seed)
+    perm = rng.permutation(len(v))
+    inverse = np.empty_like(perm)
+    inverse[perm] = np.arange(len(v))
+    image = read_received(v[perm], inverse[f][rng.permutation(len(f))])
+    assert image.reader == "connectivity" and image.n == 64 and image.hypotheses >= 1
+    assert not image.missing.any()
+    # The grid may be read in any of its 8 symmetries; the samples are the same set.
+    candidates = [np.rot90(g, k) for g in (gim, gim.transpose(1, 0, 2)) for k in range(4)]
+    assert any(np.array_equal(image.samples, c) for c in candidates)
+
+
+def test_smoothing_undone_inverts_uniform_laplacian_steps():
+    gim = _sheet()
+    v, f = geometry_image_to_mesh(gim)
+    mean, moved = uniform_smoothing_operator(len(v), f)
+    smoothed = v.copy()
+    for _ in range(UNSMOOTH_STEPS[1]):
+        step = mean @ smoothed - smoothed
+        smoothed = smoothed + UNSMOOTH_LAMBDA * np.where(moved[:, None], step, 0.0)
+    image = read_connectivity(smoothed, f)
+    assert image.smoothing_undone is not None
+    undone = dict(image.smoothing_undone())
+    assert sorted(undone) == list(UNSMOOTH_STEPS[1:])
+    direct = read_connectivity(v, f).samples
+    # k = 5 undoes the 5 steps (to the fixed point's accuracy), better than the received mesh.
+    assert_allclose(undone[5], direct, rtol=0, atol=1e-6)
+    assert np.abs(image.samples - direct).max() > 1e-4
+
+
+def test_no_grid_and_bad_arrays_are_refused():
+    rng = np.random.default_rng(0)
+    v = rng.normal(size=(40, 3))
+    f = rng.integers(0, 40, size=(30, 3))
+    with pytest.raises((GridError, MeshError)):
+        read_received(v, f)
+    with pytest.raises(MeshError):
+        read_received(np.full((3, 3), np.nan), np.array([[0, 1, 2]]))
+    assert_array_equal(read_connectivity(*geometry_image_to_mesh(_sheet())).missing, False)
