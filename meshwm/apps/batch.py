@@ -23,6 +23,7 @@ from typing import Any
 import numpy as np
 
 from meshwm._malloc import keep_freed_memory
+from meshwm._validate import DEFAULT_MAX_FACES
 from meshwm.detect import decide
 from meshwm.errors import GridError, MeshError
 from meshwm.mesh.io import READ_SUFFIXES, read_mesh
@@ -45,7 +46,7 @@ class Check:
     ident: bytes | None = None
     any_id: bool = False
     fpr: float = 1e-6
-    max_faces: int = 5_000_000
+    max_faces: int = DEFAULT_MAX_FACES
 
     def __post_init__(self) -> None:
         chosen = (self.mark is not None) + (self.ident is not None) + bool(self.any_id)

@@ -35,7 +35,7 @@ import scipy.sparse as sp
 from numpy.typing import NDArray
 from scipy.sparse.csgraph import connected_components
 
-from meshwm._validate import check_mesh
+from meshwm._validate import DEFAULT_MAX_FACES, check_mesh
 from meshwm.errors import MeshError
 
 __all__ = [
@@ -387,7 +387,7 @@ def largest_component(vertices: NDArray, faces: NDArray) -> tuple[NDArray, NDArr
 
 
 def clean_mesh(
-    vertices: NDArray, faces: NDArray, *, max_faces: int = 5_000_000, min_faces: int = 4
+    vertices: NDArray, faces: NDArray, *, max_faces: int = DEFAULT_MAX_FACES, min_faces: int = 4
 ) -> CleanMesh:
     """Clean a triangle mesh and split off its largest connected component.
 

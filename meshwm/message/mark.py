@@ -11,8 +11,7 @@ array of 0/1 with ``n`` in 8..256: 1 is ink (dark), 0 is background (light).
 References
 ----------
 .. [1] S. C. Tamane, R. R. Deshmukh, "Blind 3D model watermarking based on multi-resolution
-   representation and fuzzy logic", section 3 step 4 and section 4
-   (../shared/seed/000_4f8ee2d18af97990.txt).
+   representation and fuzzy logic", section 3 step 4 and section 4.
 """
 
 from __future__ import annotations
@@ -143,14 +142,14 @@ def _decode_gray(path: PathLike) -> NDArray:
             width, height = image.size
             if max(width, height) > MAX_IMAGE_SIDE:
                 raise _TooLarge(f"{width}×{height}")
-            image = ImageOps.exif_transpose(image)  # as it is meant to be viewed
-            if image.mode in _NUMERIC_MODES:
-                return np.array(image)
-            if "A" in image.getbands() or "transparency" in image.info:
-                rgba = image.convert("RGBA")
+            upright: Image.Image = ImageOps.exif_transpose(image)  # as it is meant to be viewed
+            if upright.mode in _NUMERIC_MODES:
+                return np.array(upright)
+            if "A" in upright.getbands() or "transparency" in upright.info:
+                rgba = upright.convert("RGBA")
                 white = Image.new("RGBA", rgba.size, (255, 255, 255, 255))
-                image = Image.alpha_composite(white, rgba)
-            return np.array(image.convert("L"))
+                upright = Image.alpha_composite(white, rgba)
+            return np.array(upright.convert("L"))
 
 
 def load_mark(path: PathLike, *, size: int | None = None) -> NDArray[np.uint8]:

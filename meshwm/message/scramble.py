@@ -18,7 +18,7 @@ never on a random stream or the platform.
 References
 ----------
 .. [1] S. C. Tamane, R. R. Deshmukh, "Blind 3D model watermarking based on multi-resolution
-   representation and fuzzy logic", sections 2 and 3 (../shared/seed/000_4f8ee2d18af97990.txt).
+   representation and fuzzy logic", sections 2 and 3.
 .. [2] F. J. Dyson, H. Falk, "Period of a discrete cat mapping", The American Mathematical
    Monthly 99(7), 603-614, 1992, doi:10.2307/2324989.
 """

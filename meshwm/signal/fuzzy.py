@@ -43,8 +43,7 @@ about 2e-15) and is over two thousand times faster per point (``scripts/bench_fu
 References
 ----------
 .. [1] S. C. Tamane, R. R. Deshmukh, "Blind 3D model watermarking based on multi-resolution
-   representation and fuzzy logic", section 2 (FIS, five steps) and section 3 steps 6-8
-   (../shared/seed/000_4f8ee2d18af97990.txt).
+   representation and fuzzy logic", section 2 (FIS, five steps) and section 3 steps 6-8.
 .. [2] E. H. Mamdani, S. Assilian, "An experiment in linguistic synthesis with a fuzzy logic
    controller", Int. J. Man-Machine Studies 7(1), 1975, doi:10.1016/S0020-7373(75)80002-2.
 """
@@ -400,7 +399,8 @@ def build_control_system(system: FuzzySystem = PERCEPTUAL_FIS) -> ControlSystem:
 
     References
     ----------
-    .. [1] Tamane & Deshmukh, section 2 (../shared/seed/000_4f8ee2d18af97990.txt).
+    .. [1] S. C. Tamane, R. R. Deshmukh, "Blind 3D model watermarking based on
+       multi-resolution representation and fuzzy logic", section 2.
 
     Examples
     --------
@@ -742,8 +742,9 @@ def infer_strength(
 
     References
     ----------
-    .. [1] Tamane & Deshmukh, section 2 (FIS steps 1-5) and section 3 step 7
-       (../shared/seed/000_4f8ee2d18af97990.txt).
+    .. [1] S. C. Tamane, R. R. Deshmukh, "Blind 3D model watermarking based on
+       multi-resolution representation and fuzzy logic", section 2 (FIS steps 1-5) and
+       section 3 step 7.
 
     Examples
     --------

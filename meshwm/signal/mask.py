@@ -90,8 +90,7 @@ Stability (measured)
 References
 ----------
 .. [1] S. C. Tamane, R. R. Deshmukh, "Blind 3D model watermarking based on multi-resolution
-   representation and fuzzy logic", section 3 steps 6-7 and Table 4
-   (../shared/seed/000_4f8ee2d18af97990.txt).
+   representation and fuzzy logic", section 3 steps 6-7 and Table 4.
 .. [2] J. J. Koenderink, A. J. van Doorn, "Surface shape and curvature scales", Image and
    Vision Computing 10(8), 1992.
 """
@@ -312,13 +311,13 @@ def _unit_size(points: NDArray[np.float64]) -> NDArray[np.float64] | None:
     return centred / rms
 
 
-def _block_sum(values: NDArray[np.float64], block: int) -> NDArray[np.float64]:
+def _block_sum(values: NDArray, block: int) -> NDArray[np.float64]:
     """Sum ``(M, M, ...)`` values over ``block × block`` tiles: ``(M // b, M // b, ...)``."""
     m = values.shape[0] // block
     return values.reshape(m, block, m, block, *values.shape[2:]).sum(axis=(1, 3))
 
 
-def _ratio(numerator: NDArray[np.float64], denominator: NDArray[np.float64]) -> NDArray:
+def _ratio(numerator: NDArray, denominator: NDArray) -> NDArray:
     """``numerator / (denominator + tiny)``, with a floor continuous in the data; 0 where 0/0."""
     padded = denominator + _TINY * float(denominator.mean())
     safe = np.where(padded > 0.0, padded, 1.0)
@@ -370,7 +369,7 @@ def _grid_edges(side: int, block: int) -> tuple[NDArray[np.int64], NDArray[np.in
     return edges, owner
 
 
-def _block_bumpiness(normals: NDArray[np.float64], side: int, block: int) -> NDArray:
+def _block_bumpiness(normals: NDArray, side: int, block: int) -> NDArray:
     """Weighted mean of ``1 - n_u · n_v`` over the edges of each block (see module docstring)."""
     edges, owner = _grid_edges(side, block)
     nu, nv = normals[edges[:, 0]], normals[edges[:, 1]]

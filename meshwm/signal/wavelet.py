@@ -62,8 +62,7 @@ All computation is in float64, whatever the input's real dtype.
 References
 ----------
 .. [1] S. C. Tamane, R. R. Deshmukh, "Blind 3D model watermarking based on multi-resolution
-   representation and fuzzy logic", section 3, steps 1-3 and 9
-   (../shared/seed/000_4f8ee2d18af97990.txt).
+   representation and fuzzy logic", section 3, steps 1-3 and 9.
 .. [2] G. R. Lee, R. Gommers, F. Wasilewski, K. Wohlfahrt, A. O'Leary, "PyWavelets: A Python
    package for wavelet analysis", JOSS 4(36), 1237, 2019, doi:10.21105/joss.01237.
 """

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 
 from meshwm.signal.wavelet import MRR_LEVEL3_KEYS
@@ -15,10 +16,10 @@ CHANNELS = ("x", "y", "z")
 DEFAULT_STEP = 0.006
 
 
-def _names(value: object, valid: tuple[str, ...], name: str) -> tuple[str, ...]:
+def _names(value: Iterable[str] | str, valid: tuple[str, ...], name: str) -> tuple[str, ...]:
     if isinstance(value, str):
         value = (value,)
-    items = tuple(value)  # type: ignore[call-overload]
+    items = tuple(value)
     if not items:
         raise ValueError(f"{name} must not be empty; valid: {', '.join(valid)}")
     bad = [v for v in items if v not in valid]
