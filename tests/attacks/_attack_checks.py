@@ -1,12 +1,20 @@
-"""Helpers of the attack tests: which attacks are random or keep the faces, mesh comparisons."""
+"""Helpers of the attack tests: which attacks are random or keep the faces, mesh comparisons,
+the geometry-image mesh of spot."""
 
 from __future__ import annotations
+
+import functools
+from pathlib import Path
 
 import numpy as np
 import scipy.sparse as sp
 
 from meshwm.attacks import ATTACKS
+from meshwm.gim.remesh import geometry_image_to_mesh, mesh_to_geometry_image
 from meshwm.mesh.clean import unique_edges
+from meshwm.mesh.io import read_mesh
+
+SPOT = Path(__file__).parent.parent.parent / "assets" / "spot.ply"
 
 RANDOM = [
     "similarity",
@@ -90,3 +98,11 @@ def _square_fan():
             p = 3 * r + c
             f += [[p, p + 1, p + 4], [p, p + 4, p + 3]]
     return v, np.array(f)
+
+
+@functools.cache
+def spot_gim_mesh() -> tuple[np.ndarray, np.ndarray]:
+    """A geometry-image mesh of spot as meshwm writes it (N = 64, cut seams welded), built once
+    per test process (the fixtures of several modules share it; never modify it)."""
+    g = mesh_to_geometry_image(*read_mesh(SPOT), size=64)
+    return geometry_image_to_mesh(g.gim, g.weld)

@@ -16,9 +16,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 from _attack_checks import (
+    GIM,
     RANDOM,
     SAME_FACES,
     SEEDLESS,
+    spot_gim_mesh,
 )
 from numpy.testing import assert_array_equal
 
@@ -26,6 +28,23 @@ from meshwm.attacks import ATTACK_PARAMS, ATTACKS, apply_attack
 from meshwm.attacks.transforms import (
     similarity,
 )
+
+
+@pytest.fixture(scope="module")
+def mesh(spot_mesh):
+    return spot_mesh
+
+
+@pytest.fixture(scope="module")
+def gim_mesh():
+    """A geometry-image mesh as meshwm writes it (N = 64, cut seams welded)."""
+    return spot_gim_mesh()
+
+
+@pytest.fixture(scope="module")
+def meshes(mesh, gim_mesh):
+    """The input each attack is tested on."""
+    return {name: gim_mesh if name in GIM else mesh for name in ATTACKS}
 
 
 @pytest.mark.parametrize("name", sorted(ATTACKS))

@@ -1,4 +1,8 @@
-"""Helpers of the mesh I/O tests: the assets folder, triangle comparisons, the error shape."""
+"""Helpers of the mesh I/O tests: the assets folder, triangle comparisons, the error shape.
+
+No conftest.py here: with ``--doctest-modules`` pytest imports every conftest.py as a module
+named ``conftest``, and two of them outside packages collide; the fixtures are in the modules.
+"""
 
 from __future__ import annotations
 

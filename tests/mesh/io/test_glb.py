@@ -5,10 +5,16 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+import pytest
 import trimesh
 from _io_checks import sorted_rows, triangle_rows
 
 from meshwm.mesh.io import read_mesh
+
+
+@pytest.fixture(scope="module")
+def spot(spot_mesh: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    return spot_mesh
 
 
 def test_glb_single_mesh(tmp_path: Path, spot: tuple[np.ndarray, np.ndarray]) -> None:

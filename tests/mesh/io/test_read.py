@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 import trimesh
 from _io_checks import ASSETS, assert_one_line_error
-from _malformed import CASE_IDS, MUST_FAIL_ON_READ_IDS, MalformedCase
+from _malformed import CASE_IDS, MUST_FAIL_ON_READ_IDS, MalformedCase, make_malformed_cases
 
 import meshwm.mesh.io.read as mio_read
 from meshwm.errors import MeshError
@@ -26,6 +26,17 @@ READABLE_LATER_IDS = tuple(i for i in CASE_IDS if i not in MUST_FAIL_ON_READ_IDS
 # --------------------------------------------------------------------------------------------
 # malformed files
 # --------------------------------------------------------------------------------------------
+
+
+@pytest.fixture(scope="session")
+def malformed_cases(tmp_path_factory: pytest.TempPathFactory) -> dict[str, MalformedCase]:
+    cases = make_malformed_cases(tmp_path_factory.mktemp("malformed"))
+    return {case.case_id: case for case in cases}
+
+
+@pytest.fixture(scope="module")
+def spot(spot_mesh: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    return spot_mesh
 
 
 def test_malformed_case_list(malformed_cases: dict[str, MalformedCase]) -> None:

@@ -5,9 +5,15 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+import pytest
 from _io_checks import triangle_rows
 
 from meshwm.mesh.io import read_mesh, write_mesh
+
+
+@pytest.fixture(scope="module")
+def spot(spot_mesh: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    return spot_mesh
 
 
 def test_round_trip_stl_float32(tmp_path: Path, spot: tuple[np.ndarray, np.ndarray]) -> None:

@@ -18,6 +18,11 @@ from meshwm.mesh.io.registry import WRITERS
 # --------------------------------------------------------------------------------------------
 
 
+@pytest.fixture(scope="module")
+def spot(spot_mesh: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    return spot_mesh
+
+
 def _awkward_mesh() -> tuple[np.ndarray, np.ndarray]:
     """Floats across the whole float64 range, signed zeros and an unreferenced vertex."""
     rng = np.random.default_rng(20240611)
