@@ -34,8 +34,8 @@ per core (``--jobs 1``) and ≥ 1.8× from 1 to 2 jobs.  Also a per-stage breakd
 files (median seconds per file: read, check_mesh, ``meshwm.gim.recover.recover_grid``, decode).
 
 With ``--reorder``, the same measurements on a copy of the folder with every file's vertex
-and face order shuffled (``meshwm.attacks.library.reorder``): files re-exported by other tools lose
-the writer's order.
+and face order shuffled (``meshwm.attacks.transforms.reorder``): files re-exported by other
+tools lose the writer's order.
 
 Each row is run ``--repeat`` times (default 3) and the run of median time is reported (all
 times are in the JSON); a Dask cluster only exists while its own row runs.  ``--jobs 1`` and
@@ -97,7 +97,7 @@ from _machine import machine_info  # noqa: E402
 
 from meshwm._validate import check_mesh  # noqa: E402
 from meshwm.apps.batch import Check, run_dask, run_local  # noqa: E402
-from meshwm.attacks.library import reorder  # noqa: E402
+from meshwm.attacks.transforms import reorder  # noqa: E402
 from meshwm.errors import GridError  # noqa: E402
 from meshwm.gim.recover import recover_grid  # noqa: E402
 from meshwm.gim.remesh import mesh_to_geometry_image  # noqa: E402

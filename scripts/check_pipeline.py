@@ -78,7 +78,8 @@ except ImportError:
 
 from _machine import machine_info  # noqa: E402
 
-from meshwm.attacks.library import float32, meshlab_laplacian, quantize, reorder, similarity  # noqa: E402
+from meshwm.attacks.smoothing import meshlab_laplacian  # noqa: E402
+from meshwm.attacks.transforms import float32, quantize, reorder, similarity  # noqa: E402
 from meshwm.detect import decide  # noqa: E402
 from meshwm.gim.recover import recover_grid  # noqa: E402
 from meshwm.mesh.io import read_mesh  # noqa: E402

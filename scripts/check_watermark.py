@@ -38,7 +38,7 @@ except ImportError:
     sys.path.insert(0, str(REPO_ROOT))
 
 from meshwm.apps.cli import main as cli_main  # noqa: E402
-from meshwm.attacks.library import reorder, similarity  # noqa: E402
+from meshwm.attacks.transforms import reorder, similarity  # noqa: E402
 from meshwm.mesh.io import read_mesh, write_mesh  # noqa: E402
 from meshwm.message.mark import default_mark, save_mark  # noqa: E402
 from meshwm.watermark import embed, extract  # noqa: E402

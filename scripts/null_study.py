@@ -52,7 +52,7 @@ except ImportError:
 
 from _machine import machine_info  # noqa: E402
 
-from meshwm.attacks import library as attacks  # noqa: E402
+from meshwm.attacks import smoothing, transforms  # noqa: E402
 from meshwm.detect import decide, detection_p_value  # noqa: E402
 from meshwm.errors import GridError  # noqa: E402
 from meshwm.gim.remesh import geometry_image_to_mesh, mesh_to_geometry_image  # noqa: E402
@@ -126,12 +126,12 @@ def _variants(v: np.ndarray, f: np.ndarray) -> list[tuple[str, np.ndarray, np.nd
     """Unmarked meshes as a pipeline might hand them over."""
     out = [("as written", v, f)]
     for name, fn, kw in (
-        ("noise 0.1 %", attacks.noise, {"amplitude": 0.001}),
-        ("Laplacian x10", attacks.laplacian, {"iterations": 10}),
-        ("quantise 10 bits", attacks.quantize, {"bits": 10}),
-        ("crop 10 %", attacks.crop, {"fraction": 0.1}),
-        ("similarity", attacks.similarity, {}),
-        ("reorder", attacks.reorder, {}),
+        ("noise 0.1 %", transforms.noise, {"amplitude": 0.001}),
+        ("Laplacian x10", smoothing.laplacian, {"iterations": 10}),
+        ("quantise 10 bits", transforms.quantize, {"bits": 10}),
+        ("crop 10 %", transforms.crop, {"fraction": 0.1}),
+        ("similarity", transforms.similarity, {}),
+        ("reorder", transforms.reorder, {}),
     ):
         m = fn(v, f, seed=1, **kw)
         out.append((name, m[0], m[1]))

@@ -1,4 +1,4 @@
-"""Generator of malformed mesh files for the reader tests (``tests/test_io.py``).
+"""Generator of malformed mesh files for the reader tests (``tests/mesh/io/test_read.py``).
 
 Every case is built deterministically from the binary PLY assets in ``assets/`` (parsed here
 with NumPy, independently of :mod:`meshwm.mesh.io`) or from generated text: truncations, byte

@@ -14,7 +14,7 @@ from hypothesis import strategies as st
 from numpy.testing import assert_allclose, assert_array_equal
 from scipy.spatial.transform import Rotation
 
-from meshwm.attacks.library import apply_attack
+from meshwm.attacks import apply_attack
 from meshwm.detect import decide, detection_p_value
 from meshwm.errors import CapacityError, GridError, MeshError
 from meshwm.mesh.clean import edge_topology_counts, euler_characteristic

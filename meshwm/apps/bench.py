@@ -4,7 +4,7 @@ Three parts (docs/bench.md explains every table and plot):
 
 1. **Paper table.**  Each bundled model is marked at three strengths, matched to the PSNRs of
    the paper's Tables 2, 3 and 4 (92.45, 74.78 and 90.20 dB), and attacked with the paper's
-   section 5 attacks (:data:`PAPER_ATTACKS`, the ``gim_*`` attacks of :mod:`meshwm.attacks.library`
+   section 5 attacks (:data:`PAPER_ATTACKS`, the ``gim_*`` attacks of :mod:`meshwm.attacks.image`
    plus rotation, translation and scaling).  Each row holds the paper's correlation and PSNR
    (:data:`PAPER_TABLES`, copied from ``paper_tables.json``) next to ours, whether ours is at
    least the paper's, and for a row that is not: the PSNR our curve needs to reach the paper's
@@ -42,7 +42,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from meshwm._atomic import write_atomic
-from meshwm.attacks.library import apply_attack
+from meshwm.attacks import apply_attack
 from meshwm.detect import decide
 from meshwm.errors import GridError, MeshError
 from meshwm.gim.recover import recover_grid
@@ -186,7 +186,7 @@ class Attack(NamedTuple):
     group, label : str
         The paper's heading ("Gaussian smoothing") and row ("hsize=3, sigma=10").
     name : str or None
-        A key of :data:`meshwm.attacks.library.ATTACKS`, one of ``"rotation"``, ``"translation"``,
+        A key of :data:`meshwm.attacks.ATTACKS`, one of ``"rotation"``, ``"translation"``,
         ``"scaling"`` (:data:`TRANSFORMS`), or ``None`` (no attack).
     params : dict
         The attack's options.

@@ -20,7 +20,7 @@ from meshwm import __version__
 from meshwm._malloc import keep_freed_memory
 from meshwm._validate import DEFAULT_MAX_FACES, check_square_pow2
 from meshwm.apps.batch import Check, expand_paths, progress_bar, run_dask, run_local, summarise
-from meshwm.attacks.library import ATTACK_PARAMS, ATTACKS, apply_attack
+from meshwm.attacks import ATTACK_PARAMS, ATTACKS, apply_attack
 from meshwm.detect import decide
 from meshwm.errors import GridError
 from meshwm.gim.remesh import geometry_image_to_mesh, mesh_to_geometry_image

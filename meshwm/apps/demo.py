@@ -18,7 +18,7 @@ from numpy.typing import NDArray
 from PIL import Image, ImageDraw
 
 from meshwm._atomic import write_atomic
-from meshwm.attacks.library import apply_attack
+from meshwm.attacks import apply_attack
 from meshwm.detect import decide
 from meshwm.mesh.io import read_mesh, write_mesh
 from meshwm.message.mark import default_mark, save_mark

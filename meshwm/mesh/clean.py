@@ -469,7 +469,7 @@ def uniform_smoothing_operator(
     """Row-stochastic neighbour-mean matrix M and the mask of vertices that have neighbours.
 
     One step of uniform Laplacian smoothing is ``v += lam * (M @ v - v)`` on those vertices
-    (:func:`meshwm.attacks.library.laplacian`); the robust decoder undoes it
+    (:func:`meshwm.attacks.smoothing.laplacian`); the robust decoder undoes it
     (:mod:`meshwm.profiles.robust`).
 
     An interior vertex averages all its edge neighbours.  A boundary vertex (one on an edge of

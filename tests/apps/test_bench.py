@@ -14,7 +14,7 @@ import pytest
 
 from meshwm.apps import bench
 from meshwm.apps.cli import main
-from meshwm.attacks.library import ATTACK_PARAMS, ATTACKS
+from meshwm.attacks import ATTACK_PARAMS, ATTACKS
 
 REPO = Path(__file__).resolve().parent.parent.parent
 SEED_TABLES = REPO.parent / "shared" / "seed" / "paper_tables.json"

@@ -2,7 +2,7 @@
 
 The meshes are the ones meshwm writes (:func:`meshwm.gim.remesh.geometry_image_to_mesh`):
 an open synthetic grid, and the welded geometry images of the bundled meshes at N = 128; whole,
-or cropped (:func:`meshwm.attacks.library.crop`), or cut into pieces.
+or cropped (:func:`meshwm.attacks.transforms.crop`), or cut into pieces.
 """
 
 from __future__ import annotations
@@ -16,7 +16,8 @@ import trimesh
 from numpy.testing import assert_array_equal
 
 import meshwm.gim.recover as grid_module
-from meshwm.attacks.library import apply_attack, crop
+from meshwm.attacks import apply_attack
+from meshwm.attacks.transforms import crop
 from meshwm.errors import GridError
 from meshwm.gim.recover import drop_irregular, recover_grid
 from meshwm.gim.remesh import (

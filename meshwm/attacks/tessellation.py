@@ -1,0 +1,85 @@
+"""Attacks that change the connectivity: quadric simplification and subdivision (MeshLab).
+
+MEPP simplification (Wang et al., "A benchmark for 3D mesh watermarking", SMI 2010,
+doi:10.1109/SMI.2010.33) and midpoint and Loop subdivision, as MeshLab's filters (pymeshlab).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pymeshlab
+from numpy.typing import NDArray
+
+from meshwm.attacks._meshlab import run_meshlab
+from meshwm.attacks.params import Mesh, check_options
+
+__all__ = ["simplify", "subdivide_loop", "subdivide_midpoint"]
+
+
+def simplify(
+    vertices: NDArray, faces: NDArray, *, seed: int = 0, keep_fraction: float = 0.5
+) -> Mesh:
+    """Quadric edge-collapse simplification to ``keep_fraction`` of the faces (MEPP: 70/50/10 %).
+
+    MeshLab ``meshing_decimation_quadric_edge_collapse`` with ``targetfacenum =
+    round(keep_fraction · faces)`` (``keep_fraction`` in (0, 1)) and these options:
+    ``preserveboundary=True`` (``boundaryweight=1``), ``preservenormal=True`` (no face flips),
+    ``preservetopology=True`` (no genus change), ``optimalplacement=True``,
+    ``planarquadric=True`` (better on flat regions), ``qualitythr=0.3`` and
+    ``autoclean=True``, i.e. MeshLab's defaults plus the three ``preserve*`` options.  The
+    result has the target face count up to a face or two.  ``seed`` is ignored.
+    """
+    keep = check_options("simplify", keep_fraction=keep_fraction)["keep_fraction"]
+    target = max(1, round(keep * len(np.asarray(faces))))
+    return run_meshlab(
+        vertices,
+        faces,
+        lambda ms: ms.meshing_decimation_quadric_edge_collapse(
+            targetfacenum=target,
+            qualitythr=0.3,
+            preserveboundary=True,
+            boundaryweight=1.0,
+            preservenormal=True,
+            preservetopology=True,
+            optimalplacement=True,
+            planarquadric=True,
+            autoclean=True,
+        ),
+    )
+
+
+def subdivide_midpoint(
+    vertices: NDArray, faces: NDArray, *, seed: int = 0, iterations: int = 1
+) -> Mesh:
+    """Midpoint subdivision (MeshLab ``meshing_surface_subdivision_midpoint``).
+
+    Every edge is split at its midpoint (edge-length threshold 0, absolute), so each
+    iteration (``iterations`` 1..3) multiplies the face count by 4; no vertex moves.
+    ``seed`` is ignored.
+    """
+    n = check_options("subdivide_midpoint", iterations=iterations)["iterations"]
+    return run_meshlab(
+        vertices,
+        faces,
+        lambda ms: ms.meshing_surface_subdivision_midpoint(
+            iterations=n, threshold=pymeshlab.PureValue(0.0)
+        ),
+    )
+
+
+def subdivide_loop(
+    vertices: NDArray, faces: NDArray, *, seed: int = 0, iterations: int = 1
+) -> Mesh:
+    """Loop subdivision (MeshLab ``meshing_surface_subdivision_loop``, Loop's weights).
+
+    Every edge is split (threshold 0, absolute) and all vertices move by Loop's rules, so
+    each iteration (``iterations`` 1..3) multiplies the face count by 4.  ``seed`` is ignored.
+    """
+    n = check_options("subdivide_loop", iterations=iterations)["iterations"]
+    return run_meshlab(
+        vertices,
+        faces,
+        lambda ms: ms.meshing_surface_subdivision_loop(
+            loopweight="Loop", iterations=n, threshold=pymeshlab.PureValue(0.0)
+        ),
+    )
