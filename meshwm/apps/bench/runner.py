@@ -492,7 +492,7 @@ def _mesh_attack_runs(
 
 def bundled_models() -> list[tuple[str, Path]]:
     """The bundled meshes: ``assets/`` of a source checkout, else the packaged spot only."""
-    assets = Path(__file__).resolve().parent.parent.parent / "assets"
+    assets = Path(__file__).resolve().parents[3] / "assets"  # meshwm/apps/bench/runner.py
     found = [(n, assets / f"{n}.ply") for n in ("spot", "kitten", "plane_holes")]
     if all(p.is_file() for _, p in found):
         return found

@@ -23,6 +23,13 @@ def _one_line_error(capsys: pytest.CaptureFixture) -> str:
     return err
 
 
+def test_bundled_models_are_the_assets_of_a_checkout():
+    assert bench.bundled_models() == [
+        (name, REPO / "assets" / f"{name}.ply") for name in ("spot", "kitten", "plane_holes")
+    ]
+    assert bench.packaged_spot().is_file()
+
+
 def test_meshes_in(tmp_path):
     with pytest.raises(ValueError, match="no mesh files"):
         bench.meshes_in(tmp_path)
