@@ -1,41 +1,18 @@
-"""What machine a benchmark ran on (shared by the scripts in this folder)."""
+"""What machine a benchmark ran on (shared by the scripts in this folder).
+
+The scripts' name for :mod:`meshwm.apps.machine`, which ``meshwm bench`` uses too.
+"""
 
 from __future__ import annotations
 
-import os
-import platform
-from importlib.metadata import PackageNotFoundError, version
+import sys
+from pathlib import Path
 
-import numpy as np
+try:
+    import meshwm  # noqa: F401
+except ImportError:  # run from a checkout: the scripts put the repo root on sys.path
+    sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
+from meshwm.apps.machine import machine_info, package_version
 
-def package_version(name: str) -> str:
-    """Installed version of a distribution, or "not installed"."""
-    try:
-        return version(name)
-    except PackageNotFoundError:
-        return "not installed"
-
-
-def machine_info(*packages: str) -> dict:
-    """CPU, OS, Python and numpy versions, plus the versions of ``packages``."""
-    cpu = platform.processor()
-    if not cpu:
-        try:
-            with open("/proc/cpuinfo", encoding="utf-8") as stream:
-                cpu = next(
-                    (ln.split(":", 1)[1].strip() for ln in stream if ln.startswith("model name")),
-                    "",
-                )
-        except OSError:
-            cpu = ""
-    uname = platform.uname()
-    info = {
-        "cpu_count": os.cpu_count(),
-        "processor": cpu or uname.machine,
-        "uname": f"{uname.system} {uname.release} {uname.machine}",
-        "python": platform.python_version(),
-        "numpy": np.__version__,
-    }
-    info.update({name: package_version(name) for name in packages})
-    return info
+__all__ = ["machine_info", "package_version"]

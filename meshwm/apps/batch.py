@@ -14,7 +14,7 @@ from __future__ import annotations
 import glob
 import os
 import time
-from collections.abc import Callable, Iterable, Iterator, Sequence
+from collections.abc import Iterable, Iterator, Sequence
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
@@ -238,21 +238,3 @@ def summarise(rows: Sequence[dict[str, Any]]) -> dict[str, Any]:
         "seconds": round(sum(r["seconds"] or 0.0 for r in rows), 3),
         "exit_code": code,
     }
-
-
-def progress_bar(total: int, stream: Any) -> Callable[[int], None]:
-    """A one-line progress bar written to ``stream`` (a terminal)."""
-    t0 = time.perf_counter()
-
-    def show(done: int) -> None:
-        width = 30
-        filled = int(width * done / max(total, 1))
-        rate = done / max(time.perf_counter() - t0, 1e-9)
-        stream.write(
-            f"\r[{'#' * filled}{'.' * (width - filled)}] {done}/{total} files, {rate:.1f}/s"
-        )
-        if done >= total:
-            stream.write("\n")
-        stream.flush()
-
-    return show

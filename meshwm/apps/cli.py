@@ -19,7 +19,8 @@ from pathlib import Path
 from meshwm import __version__
 from meshwm._malloc import keep_freed_memory
 from meshwm._validate import DEFAULT_MAX_FACES, check_square_pow2
-from meshwm.apps.batch import Check, expand_paths, progress_bar, run_dask, run_local, summarise
+from meshwm.apps.batch import Check, expand_paths, run_dask, run_local, summarise
+from meshwm.apps.progress import progress_bar
 from meshwm.attacks import ATTACK_PARAMS, ATTACKS, apply_attack
 from meshwm.detect import decide
 from meshwm.errors import GridError
@@ -810,7 +811,8 @@ def _run_demo(args: argparse.Namespace) -> int:
 def _run_bench(args: argparse.Namespace) -> int:
     import shlex
 
-    from meshwm.apps.bench import BENCH_FILES, ProgressBar, check_out, run_bench
+    from meshwm.apps.bench import BENCH_FILES, check_out, run_bench
+    from meshwm.apps.progress import ProgressBar
     from meshwm.params import PROFILES
 
     profiles = [p.strip() for p in args.profiles.split(",") if p.strip()]

@@ -58,7 +58,10 @@ def _marks_figure(panels: list[tuple[str, NDArray[np.uint8]]], path: Path) -> No
     for k, (label, mark) in enumerate(panels):
         x = pad + k * (side + pad)
         tile = Image.fromarray(np.where(mark == 1, 0, 255).astype(np.uint8))
-        image.paste(tile.resize((side, side), Image.NEAREST), (x, pad))
+        # Image.NEAREST is set at run time (mypy cannot see it); Image.Resampling needs Pillow
+        # 9.1 and the floor is 9.0.
+        nearest = Image.NEAREST  # type: ignore[attr-defined]
+        image.paste(tile.resize((side, side), nearest), (x, pad))
         for line, text in enumerate(_wrap(label, side)):
             draw.text((x, pad + side + 4 + 11 * line), text, fill=0)
     buffer = io.BytesIO()
@@ -88,6 +91,7 @@ def run_demo(out: str | os.PathLike, *, echo=print) -> list[dict]:
     result = embed(vertices, faces, mark, key=_KEY)
     r = result.report
     marked_path = out / "spot_marked.ply"
+    assert result.faces is not None  # embed of a mesh returns its faces (for mypy)
     write_mesh(marked_path, result.vertices, result.faces)
     save_mark(out / "mark_original.png", mark)
     echo(

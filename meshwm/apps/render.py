@@ -258,7 +258,7 @@ def render_views(
     >>> int.from_bytes(png[16:20], "big")  # the width, from the PNG header
     120
     """
-    v, f = check_mesh(vertices, faces)
+    v, f = check_mesh(np.asarray(vertices), np.asarray(faces))
     views = _check_int(views, "views", VIEWS_RANGE)
     size = _check_int(size, "size", SIZE_RANGE)
     if up not in _UP_AXES:
@@ -372,8 +372,8 @@ def distance_to_surface(
     >>> distance_to_surface(points, [[0, 1, 2]], square, two).tolist()
     [0.25, 1.0, 0.0]
     """
-    v, _ = check_mesh(vertices, faces)
-    ov, of = check_mesh(other_vertices, other_faces)
+    v, _ = check_mesh(np.asarray(vertices), np.asarray(faces))
+    ov, of = check_mesh(np.asarray(other_vertices), np.asarray(other_faces))
     sq, _, _ = igl.point_mesh_squared_distance(
         np.ascontiguousarray(v, dtype=np.float64),
         np.ascontiguousarray(ov, dtype=np.float64),
@@ -436,8 +436,8 @@ def render_comparison(
     >>> png[:4], stats["max_rel"]
     (b'\\x89PNG', 0.0)
     """
-    v, f = check_mesh(vertices, faces)
-    ov, of = check_mesh(other_vertices, other_faces)
+    v, f = check_mesh(np.asarray(vertices), np.asarray(faces))
+    ov, of = check_mesh(np.asarray(other_vertices), np.asarray(other_faces))
     used_other = ov[np.unique(of)]
     diagonal = float(np.linalg.norm(used_other.max(axis=0) - used_other.min(axis=0)))
     if not diagonal > 0:
