@@ -23,11 +23,16 @@ __all__ = ["DEFAULT_PROFILE", "PROFILES", "ProfileInfo", "get_profile", "options
 
 @dataclass(frozen=True)
 class ProfileInfo:
-    """A registry entry: where the profile lives and what it is for (for ``--help``)."""
+    """A registry entry: where the profile lives and what it is for (for ``--help``).
+
+    ``strength`` names the option that sets how strong the mark is (the benchmark varies it
+    to match a PSNR).
+    """
 
     name: str
     package: str
     options: str
+    strength: str
     summary: str
 
 
@@ -37,12 +42,14 @@ PROFILES: dict[str, ProfileInfo] = {
         "robust",
         "meshwm.profiles.robust",
         "RobustOptions",
+        "tangential_step",
         "meshwm's scheme for real pipelines: survives smoothing, quantisation, noise, cropping",
     ),
     "paper": ProfileInfo(
         "paper",
         "meshwm.profiles.paper",
         "PaperOptions",
+        "step",
         "the paper's scheme, made exact, for comparison",
     ),
 }

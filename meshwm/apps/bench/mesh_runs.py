@@ -12,7 +12,14 @@ from numpy.typing import NDArray
 from meshwm.apps.bench.data import CORR2_TARGET, KEY, MRMS_TARGET, SIZE, Attack, apply_bench_attack
 from meshwm.apps.bench.meshes import Model
 from meshwm.apps.bench.scoring import _error_text, _sig, score_extraction
-from meshwm.apps.bench.steps import Tick, bench_params, extract_scored, faces_of, step_used
+from meshwm.apps.bench.steps import (
+    Tick,
+    bench_params,
+    extract_scored,
+    faces_of,
+    step_used,
+    strength_of,
+)
 from meshwm.errors import MeshError
 from meshwm.message.mark import default_mark
 from meshwm.params import WatermarkParams
@@ -61,7 +68,7 @@ def mesh_attack_runs(
         "mesh": model.name,
         "profile": profile,
         "n": SIZE,
-        "step": params.step,  # None: calibrated per mesh (the report's step, below)
+        "step": strength_of(params),  # None: calibrated per mesh (the report's step, below)
         "vertices_in": len(model.vertices),
     }
     try:

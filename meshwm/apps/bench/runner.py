@@ -41,6 +41,7 @@ from meshwm.apps.bench.scoring import judge_paper_rows, summarise_mesh_attacks, 
 from meshwm.apps.bench.steps import Progress, Remesh, Tick, bench_params, remesh_cache
 from meshwm.apps.machine import versions_info
 from meshwm.params import WatermarkParams
+from meshwm.profiles import PROFILES
 
 MACHINE_PACKAGES = (
     "numpy",
@@ -168,7 +169,8 @@ def run_bench(
         Folder of meshes for the mesh-attack table (default: the bundled ones; with
         ``quick``: ignored, the packaged spot).
     profiles : sequence of str, optional
-        Default ``("paper", "robust")``; each is run (``settings.profiles_skipped`` is empty).
+        Default: every profile of :data:`meshwm.profiles.PROFILES`, by name (``("paper",
+        "robust")``); each is run (``settings.profiles_skipped`` is empty).
     progress : callable, optional
         Called as ``progress(done, total, label)`` after each unit of work.
     force : bool
@@ -179,7 +181,7 @@ def run_bench(
     started = time.perf_counter()
     if out is not None:
         check_out(out, force=force)
-    profiles = tuple(profiles or ("paper", "robust"))
+    profiles = tuple(profiles or sorted(PROFILES))
     for p in profiles:
         WatermarkParams(profile=p)  # ValueError for an unknown profile, before any work
     active = list(profiles)

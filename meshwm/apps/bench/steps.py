@@ -17,6 +17,7 @@ from meshwm.apps.bench.scoring import _error_text, score_extraction
 from meshwm.errors import GridError, MeshError
 from meshwm.gim.remesh import GeometryImage, mesh_to_geometry_image
 from meshwm.params import WatermarkParams
+from meshwm.profiles import PROFILES, options_type
 from meshwm.watermark import Embedded, extract
 
 Remesh = Callable[..., GeometryImage]
@@ -61,14 +62,22 @@ def remesh_cache() -> Remesh:
 
 
 def bench_params(profile: str, step: float | None = None) -> WatermarkParams:
-    """The parameters of every bench embedding: ``profile`` at N = :data:`SIZE` and ``step``
-    (``None``: the profile's default)."""
-    return WatermarkParams(profile=profile, size=SIZE, step=step)
+    """The parameters of every bench embedding: ``profile`` at N = :data:`SIZE` and ``step``,
+    the value of the profile's strength option (``None``: the profile's default)."""
+    if step is None:
+        return WatermarkParams(profile=profile, size=SIZE)
+    options = options_type(profile)(**{PROFILES[profile].strength: step})
+    return WatermarkParams(profile=profile, size=SIZE, options=options)
+
+
+def strength_of(params: WatermarkParams) -> float | None:
+    value: float | None = getattr(params.options, PROFILES[params.profile].strength)
+    return value
 
 
 def step_used(report: dict[str, Any], params: WatermarkParams) -> float:
     """The step of an embedding: the report's (a default calibrated per mesh), else ``params``'."""
-    step = report.get("step") or params.step
+    step = report.get("step") or strength_of(params)
     if step is None:
         raise TypeError("the embedding reports no step and its params have none")
     return float(step)
