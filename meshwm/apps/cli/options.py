@@ -1,0 +1,230 @@
+"""Option types shared by the commands, and the watermark options group.
+
+Each type turns the text of one option into a value or raises :class:`argparse.ArgumentTypeError`,
+which argparse shows as ``meshwm: error: argument --NAME: MESSAGE``.  Integer bounds are checked
+by :func:`meshwm._validate.check_integer` and :func:`meshwm._validate.check_square_pow2`, the
+checks the library itself uses, so the CLI states no bound of its own.
+
+Nothing heavy is imported here: :mod:`meshwm.params` (which loads PyWavelets) is imported by
+:func:`add_watermark_options`, and the mark and payload modules (Pillow, reedsolo) by the types
+that need them, so ``meshwm --help`` loads neither.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+from collections.abc import Callable
+from typing import TYPE_CHECKING
+
+from meshwm._validate import DEFAULT_MAX_FACES, SIZE_RANGE, check_integer, check_square_pow2
+
+if TYPE_CHECKING:  # pragma: no cover - for type checkers only
+    from meshwm.params import WatermarkParams
+
+__all__ = [
+    "DEFAULT_MARK_SIZE",
+    "add_max_faces",
+    "add_watermark_options",
+    "bounded",
+    "channels",
+    "grid_size",
+    "ident",
+    "integer",
+    "key",
+    "mark_size",
+    "positive_int",
+    "probability",
+    "real",
+    "seed",
+    "watermark_params",
+]
+
+#: Side of the mark when ``--mark-size`` is not given (the bundled logo's).
+DEFAULT_MARK_SIZE = 32
+
+
+def integer(
+    text: str, *, name: str = "the value", low: int | None = None, high: int | None = None
+) -> int:
+    """A whole number in ``[low, high]`` (either bound optional).
+
+    Examples
+    --------
+    >>> integer("12", low=1)
+    12
+    >>> integer("0", low=1)
+    Traceback (most recent call last):
+    ...
+    argparse.ArgumentTypeError: the value must be >= 1, got 0
+    """
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+    try:
+        return check_integer(value, name=name, low=low, high=high)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def positive_int(text: str) -> int:
+    """A whole number >= 1 (``--max-faces``, ``--jobs``)."""
+    return integer(text, low=1)
+
+
+def seed(text: str) -> int:
+    """A random seed: a whole number >= 0."""
+    return integer(text, low=0)
+
+
+def bounded(name: str, low: int, high: int) -> Callable[[str], int]:
+    """The type of a whole number in ``low..high``; ``name`` says what it counts in errors."""
+
+    def parse(text: str) -> int:
+        return integer(text, name=name, low=low, high=high)
+
+    return parse
+
+
+def grid_size(text: str) -> int:
+    """A geometry-image size N: a power of two in :data:`meshwm._validate.SIZE_RANGE`."""
+    try:
+        return check_square_pow2(integer(text), name="the size")
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def mark_size(text: str) -> int:
+    """The side of a square mark, in :data:`meshwm.message.mark.MARK_SIZE_RANGE`."""
+    from meshwm.message.mark import MARK_SIZE_RANGE  # Pillow: only when a mark size is given
+
+    low, high = MARK_SIZE_RANGE
+    return integer(text, name="the mark size", low=low, high=high)
+
+
+def channels(text: str) -> tuple[str, ...]:
+    """A comma-separated subset of :data:`meshwm.params.CHANNELS`."""
+    from meshwm.params import CHANNELS
+
+    names = tuple(t.strip() for t in text.split(",") if t.strip())
+    bad = [n for n in names if n not in CHANNELS]
+    if not names or bad:
+        raise argparse.ArgumentTypeError(
+            f"expected a comma-separated subset of {','.join(CHANNELS)}, got {text!r}"
+        )
+    return names
+
+
+def _number(text: str) -> float:
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+
+
+def probability(text: str) -> float:
+    """A probability strictly between 0 and 1."""
+    value = _number(text)
+    if not 0 < value < 1:
+        raise argparse.ArgumentTypeError(f"expected a probability in (0, 1), got {text}")
+    return value
+
+
+def real(text: str) -> float:
+    """A finite number."""
+    value = _number(text)
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"expected a finite number, got {text}")
+    return value
+
+
+def ident(text: str) -> bytes:
+    """A 64-bit id: 16 hex digits or 8 bytes of text (:func:`meshwm.message.payload.parse_id`)."""
+    from meshwm.message.payload import parse_id
+
+    try:
+        return parse_id(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def key(text: str) -> str:
+    """The secret key: any non-empty string."""
+    if not text:
+        raise argparse.ArgumentTypeError("the key must not be empty")
+    return text
+
+
+def add_max_faces(parser: argparse.ArgumentParser) -> None:
+    """``--max-faces``: the refusal limit of :func:`meshwm.mesh.io.read_mesh`."""
+    parser.add_argument(
+        "--max-faces",
+        type=positive_int,
+        default=DEFAULT_MAX_FACES,
+        help=f"refuse inputs with more faces ({DEFAULT_MAX_FACES})",
+    )
+
+
+def add_watermark_options(parser: argparse.ArgumentParser, *, size: bool) -> None:
+    """The public parameters; extraction must be given the ones embedding used.
+
+    ``size``: add ``--size`` (embedding only; extraction reads N from the mesh).
+    """
+    from meshwm.params import DEFAULT_STEP, PROFILES, WatermarkParams
+
+    defaults = WatermarkParams()
+    parser.add_argument("--key", type=key, required=True, help="the secret key (any string)")
+    parser.add_argument(
+        "--profile",
+        choices=PROFILES,
+        default=defaults.profile,
+        help=(
+            "embedding scheme: 'robust' survives smoothing, quantisation and cropping; "
+            f"'paper' is the paper's scheme, for comparison ({defaults.profile})"
+        ),
+    )
+    if size:
+        low, high = SIZE_RANGE
+        parser.add_argument(
+            "--size",
+            type=grid_size,
+            default=defaults.size,
+            help=f"geometry-image size N, a power of two {low}..{high} ({defaults.size})",
+        )
+    parser.add_argument(
+        "--channels",
+        type=channels,
+        default=defaults.channels,
+        help=f"canonical axes that carry the mark ({','.join(defaults.channels)})",
+    )
+    parser.add_argument(
+        "--step",
+        type=real,
+        default=None,
+        help=(
+            "quantisation step: for 'paper' relative to the model's RMS radius "
+            f"({DEFAULT_STEP['paper']}), for 'robust' to the local sample spacing "
+            f"({DEFAULT_STEP['robust']}); robust extraction does not need it"
+        ),
+    )
+    parser.add_argument(
+        "--arnold-iterations",
+        type=integer,
+        default=defaults.arnold_iterations,
+        help=f"Arnold scrambling iterations of the mark ({defaults.arnold_iterations})",
+    )
+    add_max_faces(parser)
+
+
+def watermark_params(args: argparse.Namespace) -> WatermarkParams:
+    """The :class:`~meshwm.params.WatermarkParams` that the watermark options spell."""
+    from meshwm.params import WatermarkParams
+
+    return WatermarkParams(
+        profile=args.profile,
+        size=getattr(args, "size", WatermarkParams().size),
+        channels=args.channels,
+        step=args.step,
+        arnold_iterations=args.arnold_iterations,
+    )
