@@ -45,9 +45,11 @@ DEFAULT_MARK_SIZE = 32
 
 
 def integer(
-    text: str, *, name: str = "the value", low: int | None = None, high: int | None = None
+    text: str, *, name: str = "a number", low: int | None = None, high: int | None = None
 ) -> int:
-    """A whole number in ``[low, high]`` (either bound optional).
+    """A whole number in ``[low, high]`` (either bound optional), checked by ``check_integer``.
+
+    The error is in the CLI's voice, ``expected NAME in LOW..HIGH, got VALUE``.
 
     Examples
     --------
@@ -56,7 +58,11 @@ def integer(
     >>> integer("0", low=1)
     Traceback (most recent call last):
     ...
-    argparse.ArgumentTypeError: the value must be >= 1, got 0
+    argparse.ArgumentTypeError: expected a number >= 1, got 0
+    >>> integer("300", name="a mark size", low=8, high=256)
+    Traceback (most recent call last):
+    ...
+    argparse.ArgumentTypeError: expected a mark size in 8..256, got 300
     """
     try:
         value = int(text)
@@ -64,8 +70,12 @@ def integer(
         raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
     try:
         return check_integer(value, name=name, low=low, high=high)
-    except ValueError as exc:
-        raise argparse.ArgumentTypeError(str(exc)) from None
+    except ValueError:
+        if low is not None and high is not None:
+            bounds = f"in {low}..{high}"
+        else:
+            bounds = f">= {low}" if low is not None else f"<= {high}"
+        raise argparse.ArgumentTypeError(f"expected {name} {bounds}, got {value}") from None
 
 
 def positive_int(text: str) -> int:
@@ -100,7 +110,7 @@ def mark_size(text: str) -> int:
     from meshwm.message.mark import MARK_SIZE_RANGE  # Pillow: only when a mark size is given
 
     low, high = MARK_SIZE_RANGE
-    return integer(text, name="the mark size", low=low, high=high)
+    return integer(text, name="a mark size", low=low, high=high)
 
 
 def channels(text: str) -> tuple[str, ...]:

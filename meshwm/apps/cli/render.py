@@ -40,14 +40,14 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
     )
     parser.add_argument(
         "--views",
-        type=options.bounded("the number of views", *VIEWS_RANGE),
+        type=options.bounded("a number of views", *VIEWS_RANGE),
         default=3,
         metavar="N",
         help=f"number of views side by side, {VIEWS_RANGE[0]}..{VIEWS_RANGE[1]} (3)",
     )
     parser.add_argument(
         "--size",
-        type=options.bounded("the width", *WIDTH_RANGE),
+        type=options.bounded("a width", *WIDTH_RANGE),
         default=900,
         metavar="PX",
         help=f"picture width in pixels, {WIDTH_RANGE[0]}..{WIDTH_RANGE[1]} (900)",
