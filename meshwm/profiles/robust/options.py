@@ -39,7 +39,7 @@ class RobustOptions:
 
     tangential_step: float | None = field(
         default=None,
-        metadata={"help": "tangential step over the local sample spacing (default: calibrated)"},
+        metadata={"help": "tangential step over the local sample spacing (none: calibrated)"},
     )
     distortion: float = field(
         default=DEFAULT_DISTORTION,

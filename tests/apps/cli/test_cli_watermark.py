@@ -17,9 +17,10 @@ from _malformed import make_malformed_cases
 from PIL import Image
 
 from meshwm.apps.cli import main
+from meshwm.apps.cli.output import rounded as _rounded
 from meshwm.message.mark import default_mark, load_mark, save_mark
 
-ASSETS = Path(__file__).parent.parent.parent / "assets"
+ASSETS = Path(__file__).parents[3] / "assets"
 SPOT = ASSETS / "spot.ply"
 LOGO = ASSETS / "mark32.png"
 KEY = "cli-test-key"
@@ -161,6 +162,43 @@ def test_extract_finds_n_from_the_mesh(files, tmp_path, capsys):
     assert report["n"] == 128
     assert "ber" not in report  # no --mark, nothing to compare with
     np.testing.assert_array_equal(load_mark(out), default_mark(32))
+
+
+@pytest.mark.parametrize("ident", [None, "0xC0FFEE42"], ids=["mark", "id"])
+def test_extract_json_reads_the_mesh_once(ident, files, tmp_path, capsys, monkeypatch):
+    """One Reader serves the mark and the id; the report is the library's extract + extract_id."""
+    import meshwm.watermark
+    from meshwm.mesh.io import read_mesh
+    from meshwm.params import WatermarkParams
+
+    marked = files["marked.ply"]
+    if ident is not None:
+        marked = tmp_path / "id.ply"
+        assert main(["embed", str(SPOT), "-o", str(marked), *EMBED_OPTIONS, "--id", ident]) == 0
+        capsys.readouterr()
+    vertices, faces = read_mesh(marked)
+    params = WatermarkParams(size=128)
+    expected = meshwm.watermark.extract(vertices, faces, key=KEY, params=params).report
+    found_id = meshwm.watermark.extract_id(vertices, faces, key=KEY, params=params).id
+    assert found_id == (None if ident is None else ident[2:].lower().rjust(16, "0"))
+
+    built = []
+
+    class CountingReader(meshwm.watermark.Reader):
+        def __init__(self, *args, **kwargs):
+            built.append(args)
+            super().__init__(*args, **kwargs)
+
+    monkeypatch.setattr(meshwm.watermark, "Reader", CountingReader)
+    assert main(["extract", str(marked), "--key", KEY, "--json"]) == 0
+    report = _json(capsys)
+    assert len(built) == 1
+    assert report.pop("id") == found_id
+    assert report.pop("input") == str(marked)
+    assert report.pop("output") is None
+    assert report.pop("seconds") > 0
+    del expected["seconds"]
+    assert report == json.loads(json.dumps(_rounded(expected)))
 
 
 @pytest.mark.parametrize("suffix", [".obj", ".stl"])
