@@ -106,25 +106,7 @@ def test_help_and_version_load_no_heavy_library(argv):
     assert _loaded_by(argv) == []
 
 
-#: The commands whose parser still reads a registry from a module that loads trimesh or
-#: pymeshlab (meshwm.mesh.io, meshwm.attacks.library) until those registries are made light.
-_HEAVY_REGISTRY = {"remesh", "attack"}
-
-
-@pytest.mark.parametrize(
-    "command",
-    [
-        pytest.param(
-            name,
-            marks=pytest.mark.xfail(
-                reason="its registry still loads trimesh/pymeshlab", strict=True
-            ),
-        )
-        if name in _HEAVY_REGISTRY
-        else name
-        for name in COMMANDS
-    ],
-)
+@pytest.mark.parametrize("command", list(COMMANDS))
 def test_command_help_loads_no_heavy_library(command):
     assert _loaded_by([command, "--help"]) == []
 

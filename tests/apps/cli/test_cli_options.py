@@ -9,7 +9,6 @@ import pytest
 from meshwm._validate import DEFAULT_MAX_FACES, DEFAULT_SIZE, SIZE_RANGE
 from meshwm.apps.cli import build_parser, options
 from meshwm.message.mark import MARK_SIZE_RANGE
-from meshwm.params import CHANNELS
 
 
 @pytest.mark.parametrize(
@@ -25,7 +24,7 @@ from meshwm.params import CHANNELS
         (options.bounded("a width", 2, 5), "5", 5),
         (options.probability, "1e-6", 1e-6),
         (options.real, "-0.5", -0.5),
-        (options.channels, " z, x ", ("z", "x")),
+        (options.names, " z, x ", ("z", "x")),
         (options.key, "k", "k"),
         (options.ident, "0xC0FFEE42", bytes.fromhex("00000000c0ffee42")),
     ],
@@ -61,8 +60,7 @@ def test_a_good_value_parses(parse, text, value):
         (options.probability, "x", "expected a number, got 'x'"),
         (options.real, "inf", "expected a finite number, got inf"),
         (options.real, "nan", "expected a finite number, got nan"),
-        (options.channels, "x,w", f"expected a comma-separated subset of {','.join(CHANNELS)}"),
-        (options.channels, ",", "expected a comma-separated subset"),
+        (options.names, ",", "expected a comma-separated list of names"),
         (options.key, "", "the key must not be empty"),
         (options.ident, "z" * 9, "at most 8 bytes"),
     ],
@@ -101,3 +99,28 @@ def test_watermark_options_default_to_the_library_parameters(command):
     assert params == WatermarkParams()
     assert args.max_faces == DEFAULT_MAX_FACES
     assert args.mark_size == options.DEFAULT_MARK_SIZE
+
+
+def test_profile_options_come_from_the_registry_and_belong_to_their_profile():
+    from meshwm.params import WatermarkParams
+    from meshwm.profiles.paper import PaperOptions
+    from meshwm.profiles.robust import RobustOptions
+
+    parser = build_parser(["embed"])
+    base = ["embed", "in.ply", "-o", "out.ply", "--key", "k"]
+    paper = parser.parse_args([*base, "--profile", "paper", "--step", "0.01", "--channels", "z,x"])
+    assert options.watermark_params(paper) == WatermarkParams(
+        profile="paper", options=PaperOptions(step=0.01, channels=("x", "z"))
+    )
+    robust = parser.parse_args([*base, "--tangential-step", "0.05"])
+    assert options.watermark_params(robust).options == RobustOptions(tangential_step=0.05)
+    with pytest.raises(
+        ValueError,
+        match="--step is an option of the 'paper' profile; the "
+        "'robust' profile takes --tangential-step, --distortion",
+    ):
+        options.watermark_params(parser.parse_args([*base, "--step", "0.01"]))
+    with pytest.raises(ValueError, match="unknown channels"):
+        options.watermark_params(
+            parser.parse_args([*base, "--profile", "paper", "--channels", "w"])
+        )

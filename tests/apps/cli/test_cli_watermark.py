@@ -166,7 +166,7 @@ def test_extract_finds_n_from_the_mesh(files, tmp_path, capsys):
 
 @pytest.mark.parametrize("ident", [None, "0xC0FFEE42"], ids=["mark", "id"])
 def test_extract_json_reads_the_mesh_once(ident, files, tmp_path, capsys, monkeypatch):
-    """One Reader serves the mark and the id; the report is the library's extract + extract_id."""
+    """One Decoder serves the mark and the id; the report is the library's extract + extract_id."""
     import meshwm.watermark
     from meshwm.mesh.io import read_mesh
     from meshwm.params import WatermarkParams
@@ -184,12 +184,12 @@ def test_extract_json_reads_the_mesh_once(ident, files, tmp_path, capsys, monkey
 
     built = []
 
-    class CountingReader(meshwm.watermark.Reader):
+    class CountingReader(meshwm.watermark.Decoder):
         def __init__(self, *args, **kwargs):
             built.append(args)
             super().__init__(*args, **kwargs)
 
-    monkeypatch.setattr(meshwm.watermark, "Reader", CountingReader)
+    monkeypatch.setattr(meshwm.watermark, "Decoder", CountingReader)
     assert main(["extract", str(marked), "--key", KEY, "--json"]) == 0
     report = _json(capsys)
     assert len(built) == 1
