@@ -15,7 +15,8 @@ import pytest
 import trimesh
 from numpy.testing import assert_array_equal
 
-import meshwm.gim.recover as grid_module
+import meshwm.gim.recover.read as read_module
+import meshwm.gim.recover.sizes as sizes_module
 from meshwm.attacks.library import apply_attack, crop
 from meshwm.errors import GridError
 from meshwm.gim.recover import drop_irregular, recover_grid
@@ -614,21 +615,21 @@ def test_drop_irregular_keeps_a_clean_grid_interior(open_grid):
 def _order_free(monkeypatch, v, f, **kwargs):
     """recover_grid without the face-order fast path."""
     with monkeypatch.context() as m:
-        m.setattr(grid_module, "_read_in_order", lambda *a: None)
+        m.setattr(read_module, "_read_in_order", lambda *a: None)
         return recover_grid(v, f, **kwargs)
 
 
 def _spy(monkeypatch) -> list[bool]:
     """Record whether each fast-path attempt succeeded."""
     calls: list[bool] = []
-    real = grid_module._read_in_order
+    real = read_module._read_in_order
 
     def spy(*args):
         got = real(*args)
         calls.append(got is not None)
         return got
 
-    monkeypatch.setattr(grid_module, "_read_in_order", spy)
+    monkeypatch.setattr(read_module, "_read_in_order", spy)
     return calls
 
 
@@ -730,7 +731,7 @@ def test_fast_path_declines_what_it_cannot_verify(welded, name, monkeypatch):
 def test_many_faces_in_other_components_still_read(monkeypatch):
     """More faces in all than the largest grid has (here: with the largest grid made 64):
     the size comes from the largest component, fast path or not."""
-    monkeypatch.setattr(grid_module, "_MAX_SIZE", 64)
+    monkeypatch.setattr(sizes_module, "_MAX_SIZE", 64)
     n = 32
     gim = _synthetic_gim(n)
     v, f = geometry_image_to_mesh(gim)
