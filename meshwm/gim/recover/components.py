@@ -42,7 +42,7 @@ _MAX_PIECES = 6  # pieces read per component (parts connected only across a weld
 
 class _Reading(NamedTuple):
     n: int
-    index: NDArray[np.int64] | None
+    index: NDArray[np.int64] | None  # type: ignore[assignment]  # shadows tuple.index
     faces: int  # faces explained
     hypotheses: int
     seeds: int
@@ -101,7 +101,10 @@ def _walk_matches(
         if found is None or not _consistent(index, table, mesh.faces, found):
             continue
         if done is None:
-            done = len(_explained(base, table, lookup))
+            assert base is not None  # done is only unknown when pieces were read before
+            before = _explained(base, table, lookup)
+            assert before is not None  # base was verified: no face explained twice
+            done = len(before)
         if len(found) - done >= min_faces:
             return index, found, m.n, reverse
     return None

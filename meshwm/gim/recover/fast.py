@@ -93,7 +93,7 @@ def _run_starts(f: NDArray[np.int64], n: int, runs: _RunTable) -> NDArray[np.int
         return None
     cells = 2 * np.arange(n - 3)
     cand = cand[np.all(ftype[cand[:, None] + cells] == runs.types[0], axis=1)]
-    c0, c1, c2 = (memoryview(np.ascontiguousarray(f[:, c])) for c in range(3))
+    c0, c1, c2 = (np.ascontiguousarray(f[:, c]).data for c in range(3))
     main = (runs.types[:, 0] == 1).tolist()
     for s1 in cand.tolist():
         starts = [s1]
@@ -151,12 +151,12 @@ def _read_in_order(
         return None
     seg = 2 * (n - 3)
     ran = np.take(f, starts[:, None] + np.arange(seg), axis=0)  # (n-3, seg, 3)
-    index = np.full((n, n), -1, dtype=np.int64)
-    index[1:-2, 1:-2] = ran[:, 0::2, 0]  # p00 of cells (r, c), 1 <= r, c <= n-3
-    index[1:-2, -2] = ran[:, -2, 1]  # p01 of cells (r, n-3)
-    index[-2, 1:-2] = ran[-1, 1::2, 2]  # p10 of cells (n-3, c)
-    index[-2, -2] = ran[-1, -1, 1]  # p11 of cell (n-3, n-3)
-    index = index.ravel()
+    grid = np.full((n, n), -1, dtype=np.int64)
+    grid[1:-2, 1:-2] = ran[:, 0::2, 0]  # p00 of cells (r, c), 1 <= r, c <= n-3
+    grid[1:-2, -2] = ran[:, -2, 1]  # p01 of cells (r, n-3)
+    grid[-2, 1:-2] = ran[-1, 1::2, 2]  # p10 of cells (n-3, c)
+    grid[-2, -2] = ran[-1, -1, 1]  # p11 of cell (n-3, n-3)
+    index = grid.ravel()
     if not np.array_equal(index[runs.runs], ran):
         return None
     # The faces between the runs, and after the last one (to the end: other components are
@@ -209,5 +209,5 @@ def _read_in_order(
             return None
         hypotheses += sum(reading.hypotheses for _, reading in readings)
     _fill_fold_tips(index, table)
-    index = index.reshape(n, n)
-    return RecoveredGrid(n, index, v[index], hypotheses, 1.0, 1)
+    square = index.reshape(n, n)
+    return RecoveredGrid(n, square, v[square], hypotheses, 1.0, 1)

@@ -54,8 +54,13 @@ def _code(n: int) -> _Code:
     # Key of the block with top-left (i, j): bit (i + a, j + b) at position _KEY * a + b.
     span = h - _KEY + 1
     wide = bits.astype(np.int64)
-    row = sum(wide[:, b : b + span] << b for b in range(_KEY))
-    keys = sum(row[a : a + span] << (_KEY * a) for a in range(_KEY)).ravel()
+    row = np.zeros((h, span), dtype=np.int64)
+    for b in range(_KEY):
+        row += wide[:, b : b + span] << b
+    block = np.zeros((span, span), dtype=np.int64)
+    for a in range(_KEY):
+        block += row[a : a + span] << (_KEY * a)
+    keys = block.ravel()
     order = np.argsort(keys, kind="stable")
     i, j = np.divmod(np.arange(span * span), span)
     where = (i * h + j)[order]
@@ -144,9 +149,9 @@ def _match_windows(states: NDArray[np.int8], codes: list[_Code], k: int) -> list
     h = _KEY // 2
     out = []
     for s in range(len(states)):
-        bits = np.full(w * w, -1, dtype=np.int8)
-        bits[win.code_slot[code_cell]] = states[s][code_cell]
-        bits = bits.reshape(w, w)
+        flat_bits = np.full(w * w, -1, dtype=np.int8)
+        flat_bits[win.code_slot[code_cell]] = states[s][code_cell]
+        bits = flat_bits.reshape(w, w)
         centres = _key_centres(bits, k, _KEYS)
         known = np.flatnonzero(bits.ravel() >= 0)
         seen = set()
@@ -190,14 +195,14 @@ def _match_sparse(
     flipped = np.argwhere(code.bits[1:-1, 1:-1] == 1) + 1  # code-lattice cells of the code
     out = []
     for s in range(len(states)):
-        bits = np.full(w * w, -1, dtype=np.int8)
-        bits[win.code_slot[code_cell]] = states[s][code_cell]
-        known = np.flatnonzero(bits >= 0)
+        flat_bits = np.full(w * w, -1, dtype=np.int8)
+        flat_bits[win.code_slot[code_cell]] = states[s][code_cell]
+        known = np.flatnonzero(flat_bits >= 0)
         off = np.stack([r[known] - k, c[known] - k], axis=1)
         if len(known) < min_bits:
             continue
         near = np.argsort((off**2).sum(axis=1), kind="stable")[1 : _SPARSE + 1]
-        bits = bits.reshape(w, w)
+        bits = flat_bits.reshape(w, w)
         for t in transforms:
             rot = _TRANSFORMS[t]
             turned_cells = off @ rot.T

@@ -117,8 +117,8 @@ def _sweep(
         turn = [t for t, i in ((0, i0 + d), (2, i0 - d)) if lo <= i <= hi]
         ts = np.repeat(turn, width)
         is_ = np.repeat([i0 + d if t == 0 else i0 - d for t in turn], width)
-        js = np.tile(cols, len(turn))
-        if not step(spin[ts, is_, js], spin_ac[ts, is_, js]):
+        js_ = np.tile(cols, len(turn))
+        if not step(spin[ts, is_, js_], spin_ac[ts, is_, js_]):
             return False
     return True
 

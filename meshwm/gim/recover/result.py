@@ -38,7 +38,7 @@ class RecoveredGrid(NamedTuple):
     """
 
     n: int
-    index: NDArray[np.int64]
+    index: NDArray[np.int64]  # type: ignore[assignment]  # shadows tuple.index
     gim: NDArray[np.float64]
     hypotheses: int
     coverage: float

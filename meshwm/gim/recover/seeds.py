@@ -85,8 +85,8 @@ class _Window(NamedTuple):
 def _window(k: int) -> _Window:
     lo, hi = -2 * k, 2 * k + 1
     side = hi - lo + 1
-    a, b = np.meshgrid(np.arange(lo, hi), np.arange(lo, hi), indexing="ij")
-    a, b = a.ravel(), b.ravel()
+    grid_a, grid_b = np.meshgrid(np.arange(lo, hi), np.arange(lo, hi), indexing="ij")
+    a, b = grid_a.ravel(), grid_b.ravel()
     q00 = (a - lo) * side + (b - lo)
     q01, q10 = q00 + 1, q00 + side
     q11 = q10 + 1

@@ -47,7 +47,7 @@ def _consistent(
         return False
     interior = np.zeros(len(uses), dtype=bool)
     interior[inner] = True
-    boxed = interior[faces].all(axis=1)
+    boxed = np.asarray(interior[faces].all(axis=1))
     boxed[explained] = False
     return not boxed.any()
 
