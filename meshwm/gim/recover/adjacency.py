@@ -85,6 +85,7 @@ class _Fans(NamedTuple):
 
 
 def _fans(lookup: _Lookup, faces: NDArray[np.int64]) -> _Fans:
+    """The fans of ``faces`` (the faces ``lookup`` was built from): see :class:`_Fans`."""
     n = lookup.n_vertices
     keys = lookup.keys
     u, v = np.divmod(keys, n)
@@ -131,12 +132,14 @@ class _Mesh:
         self.n_components, self.label = connected_components(graph, connection="weak")
 
     def depth(self) -> NDArray[np.int64]:
+        """Per vertex, edge hops to the nearest unclassed vertex, capped at _DEPTH + 1."""
         # Cached on the instance: a functools.cache on the method would keep every mesh alive.
         if self._depth is None:
             self._depth = _clean_depth(self, _DEPTH + 1)
         return self._depth
 
     def lookup_for(self, reverse: bool) -> _Lookup:
+        """The lookup of the faces as given, or with their winding reversed."""
         if not reverse:
             return self.lookup
         if self._reversed is None:

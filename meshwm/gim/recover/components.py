@@ -41,6 +41,8 @@ _MAX_PIECES = 6  # pieces read per component (parts connected only across a weld
 
 
 class _Reading(NamedTuple):
+    """What was read of one component (``index`` None: no piece verified)."""
+
     n: int
     index: NDArray[np.int64] | None  # type: ignore[assignment]  # shadows tuple.index
     faces: int  # faces explained

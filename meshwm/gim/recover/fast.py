@@ -39,6 +39,7 @@ class _RunTable(NamedTuple):
 
 @functools.lru_cache(maxsize=4)
 def _run_table(n: int) -> _RunTable:
+    """The run table of an N-grid, cached and read-only."""
     table = _grid_table(n)
     w, seg = 2 * (n - 1), 2 * (n - 3)
     first = np.arange(1, n - 2) * w + 2
@@ -54,6 +55,7 @@ def _run_table(n: int) -> _RunTable:
 
 @functools.lru_cache(maxsize=8)
 def _n_flipped(n: int) -> int:
+    """Flipped code cells of an N-grid (cached)."""
     return len(flipped_cells(n))
 
 

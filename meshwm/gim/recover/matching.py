@@ -45,6 +45,7 @@ class _Code(NamedTuple):
 
 @functools.lru_cache(maxsize=8)
 def _code(n: int) -> _Code:
+    """The code of an N-grid (:func:`meshwm.gim.remesh.flipped_cells`) and its key index."""
     h = n // 2
     flip = flipped_cells(n)
     cells = np.zeros((n - 1, n - 1), dtype=np.int8)
@@ -68,6 +69,8 @@ def _code(n: int) -> _Code:
 
 
 class _Match(NamedTuple):
+    """A placement of a seed window in the code: N, orientation, position, and its bits."""
+
     disagree: int
     agree: int
     n: int

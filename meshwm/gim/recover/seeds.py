@@ -83,6 +83,7 @@ class _Window(NamedTuple):
 
 @functools.lru_cache(maxsize=2)
 def _window(k: int) -> _Window:
+    """The layout of a window of 2k + 1 code cells on a side, centred on the seed cell."""
     lo, hi = -2 * k, 2 * k + 1
     side = hi - lo + 1
     grid_a, grid_b = np.meshgrid(np.arange(lo, hi), np.arange(lo, hi), indexing="ij")

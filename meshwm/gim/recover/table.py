@@ -113,4 +113,5 @@ class _GridTable:
 
 @functools.lru_cache(maxsize=4)
 def _grid_table(n: int) -> _GridTable:
+    """The table of an N-grid, cached."""
     return _GridTable(n)
