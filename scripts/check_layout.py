@@ -119,9 +119,10 @@ def _code_lines(source: str, node: ast.AST) -> int:
     text = "\n".join(lines)
     try:
         for tok in tokenize.generate_tokens(io.StringIO(text).readline):
-            if tok.type == tokenize.COMMENT and not text.splitlines()[tok.start[0] - 1][
-                : tok.start[1]
-            ].strip():
+            if (
+                tok.type == tokenize.COMMENT
+                and not text.splitlines()[tok.start[0] - 1][: tok.start[1]].strip()
+            ):
                 comment_only.add(tok.start[0] + node.lineno - 1)
     except (tokenize.TokenError, IndentationError):
         pass
