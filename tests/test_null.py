@@ -18,8 +18,7 @@ from meshwm.gim.remesh import mesh_to_geometry_image
 from meshwm.mesh.io import read_mesh
 from meshwm.message.mark import default_mark
 from meshwm.message.scramble import arnold_scramble
-from meshwm.params import WatermarkParams
-from meshwm.profiles.robust import GAINS, extract_gim_robust
+from meshwm.profiles.robust.decode import GAINS, extract_gim_robust
 
 ASSETS = Path(__file__).resolve().parent.parent / "assets"
 TRIALS = 2000
@@ -31,11 +30,10 @@ def test_agreement_on_unmarked_meshes_is_binomial():
     gim = mesh_to_geometry_image(v, f, size=128).gim
     mark = default_mark(16)
     expected = arnold_scramble(mark, iterations=5).ravel()
-    params = WatermarkParams(size=128)
     agree = np.empty(TRIALS, dtype=np.int64)
     pvals = np.empty(TRIALS)
     for t in range(TRIALS):
-        bits = extract_gim_robust(gim, 256, key=f"random key {t}", params=params).bits
+        bits = extract_gim_robust(gim, 256, key=f"random key {t}").bits
         agree[t] = int(np.sum(bits == expected))
         pvals[t] = detection_p_value(int(agree[t]), 256)
     # The agreement counts follow Binomial(256, 1/2): a chi-square goodness of fit on bins.

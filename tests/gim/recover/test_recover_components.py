@@ -9,7 +9,7 @@ import pytest
 from _recover_grids import SIZE, check_cut, check_partial, compact, expected_index
 from numpy.testing import assert_array_equal
 
-from meshwm.attacks import crop
+from meshwm.attacks.transforms import crop
 from meshwm.gim.recover import recover_grid
 from meshwm.gim.remesh import geometry_image_to_mesh
 

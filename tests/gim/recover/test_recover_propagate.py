@@ -1,7 +1,8 @@
 """Tests for the propagation (:mod:`meshwm.gim.recover.propagate`) through what it meets: a wrong
 diagonal, a missing face, the cuts of a crop (the border phase's caution), reversed winding.
 
-Meshes: the open synthetic grid at N = 64, whole or cropped (:func:`meshwm.attacks.transforms.crop`).
+Meshes: the open synthetic grid at N = 64, whole or cropped
+(:func:`meshwm.attacks.transforms.crop`).
 """
 
 from __future__ import annotations
@@ -19,7 +20,7 @@ from _recover_grids import (
 )
 from numpy.testing import assert_array_equal
 
-from meshwm.attacks import crop
+from meshwm.attacks.transforms import crop
 from meshwm.errors import GridError
 from meshwm.gim.recover import recover_grid
 from meshwm.gim.remesh import flipped_cells

@@ -8,7 +8,7 @@ import pytest
 from _recover_grids import check_cut, expected_index
 from numpy.testing import assert_array_equal
 
-from meshwm.attacks import crop
+from meshwm.attacks.transforms import crop
 from meshwm.errors import GridError
 from meshwm.gim.recover import recover_grid
 
