@@ -38,7 +38,14 @@ from meshwm.apps.bench.meshes import bundled_models, load_model, meshes_in, pack
 from meshwm.apps.bench.paper_runs import paper_model_runs
 from meshwm.apps.bench.report import check_out, write_outputs
 from meshwm.apps.bench.scoring import judge_paper_rows, summarise_mesh_attacks, summarise_paper
-from meshwm.apps.bench.steps import Progress, Remesh, Tick, bench_params, remesh_cache
+from meshwm.apps.bench.steps import (
+    Progress,
+    Remesh,
+    Tick,
+    bench_params,
+    remesh_cache,
+    strength_of,
+)
 from meshwm.apps.machine import versions_info
 from meshwm.params import WatermarkParams
 from meshwm.profiles import PROFILES
@@ -108,7 +115,7 @@ def _settings(*, quick: bool, profiles: Sequence[str], active: list[str], plan: 
         "profiles_run": active,
         "profiles_skipped": {},  # every profile runs; the field stays for bench.json's readers
         "default_profile": WatermarkParams().profile,
-        "default_steps": {p: bench_params(p).step for p in active},
+        "default_steps": {p: strength_of(bench_params(p)) for p in active},
         "fpr": FPR,
         "corr2_target": CORR2_TARGET,
         "mrms_target": MRMS_TARGET,

@@ -28,7 +28,7 @@ NORMAL_RATIO = 0.25
 #: Step multiplier where the fuzzy guard finds the surface smooth (classes 0..2).
 GUARD_RATIO = 0.7
 GUARD_CLASSES = (0, 1, 2)
-#: First step of the per-mesh calibration (``params.step is None``).
+#: First step of the per-mesh calibration (``tangential_step`` is None).
 _CALIBRATION_START = 0.03
 
 
