@@ -67,7 +67,8 @@ from meshwm._validate import DEFAULT_MAX_FACES, check_mesh
 from meshwm.detect import DEFAULT_FPR, Verdict, decide, detection_p_value
 from meshwm.errors import GridError, MeshError
 from meshwm.gim.recover import drop_irregular, recover_grid
-from meshwm.gim.remesh import GeometryImage, geometry_image_to_mesh, mesh_to_geometry_image
+from meshwm.gim.remesh import GeometryImage, mesh_to_geometry_image
+from meshwm.gim.to_mesh import geometry_image_to_mesh
 from meshwm.mesh.clean import clean_mesh
 from meshwm.message.keying import keyed_permutation, keyed_uniform
 from meshwm.message.mark import _check_bits as check_mark_bits
@@ -644,7 +645,7 @@ class Reader:
     Examples
     --------
     >>> import numpy as np
-    >>> from meshwm.gim.remesh import geometry_image_to_mesh
+    >>> from meshwm.gim.to_mesh import geometry_image_to_mesh
     >>> n = 64
     >>> i, j = np.meshgrid(np.linspace(0, 1, n), np.linspace(0, 1, n), indexing="ij")
     >>> gim = np.stack([i, j, 0.1 * np.sin(6 * i) * np.cos(5 * j)], axis=-1)

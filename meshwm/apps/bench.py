@@ -46,7 +46,8 @@ from meshwm.attacks.library import apply_attack
 from meshwm.detect import decide
 from meshwm.errors import GridError, MeshError
 from meshwm.gim.recover import recover_grid
-from meshwm.gim.remesh import geometry_image_to_mesh, mesh_to_geometry_image
+from meshwm.gim.remesh import mesh_to_geometry_image
+from meshwm.gim.to_mesh import geometry_image_to_mesh
 from meshwm.mesh.io import READ_SUFFIXES, read_mesh
 from meshwm.message.mark import default_mark
 from meshwm.metrics import psnr

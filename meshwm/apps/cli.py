@@ -23,7 +23,8 @@ from meshwm.apps.batch import Check, expand_paths, progress_bar, run_dask, run_l
 from meshwm.attacks.library import ATTACK_PARAMS, ATTACKS, apply_attack
 from meshwm.detect import decide
 from meshwm.errors import GridError
-from meshwm.gim.remesh import geometry_image_to_mesh, mesh_to_geometry_image
+from meshwm.gim.remesh import mesh_to_geometry_image
+from meshwm.gim.to_mesh import geometry_image_to_mesh
 from meshwm.mesh.io import READ_SUFFIXES, WRITE_SUFFIXES, check_output, read_mesh, write_mesh
 from meshwm.message.mark import MARK_SIZE_RANGE, default_mark, load_mark, save_mark
 from meshwm.message.payload import parse_id

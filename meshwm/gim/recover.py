@@ -4,11 +4,11 @@ Blind extraction gets a mesh and nothing else: no vertex order (files are re-ind
 round trip un-indexes and re-welds every vertex), no side file, and maybe not the whole mesh
 (a crop removes part of the surface and can split the rest into pieces).  What survives is the
 connectivity of what is left, and meshwm writes that connectivity itself
-(:func:`meshwm.gim.remesh.grid_faces`): two triangles per grid cell with alternating
+(:func:`meshwm.gim.code.grid_faces`): two triangles per grid cell with alternating
 diagonals (a 4-8 mesh: interior samples with i + j even have 8 neighbours, the others 4),
 welded along the cut seams, and a *position code*: the code cells (i and j even, off the
 border) whose public bit is 1 have their diagonal flipped
-(:func:`meshwm.gim.remesh.flipped_cells`).
+(:func:`meshwm.gim.code.flipped_cells`).
 
 :func:`recover_grid` finds which vertex is grid sample (i, j):
 
@@ -87,7 +87,7 @@ from scipy.sparse.csgraph import connected_components
 
 from meshwm._validate import check_square_pow2
 from meshwm.errors import GridError
-from meshwm.gim.remesh import code_cells, flipped_cells, grid_faces
+from meshwm.gim.code import code_cells, flipped_cells, grid_faces
 
 __all__ = ["GridError", "RecoveredGrid", "drop_irregular", "recover_grid"]
 
@@ -1089,7 +1089,7 @@ def _fill_fold_tips(index: NDArray[np.int64], table: _GridTable) -> None:
 
     Only for a complete grid (see :func:`recover_grid`): there the missing samples are the tips
     of welded folds (a cut end, or the two corners a path cut joins): their triangles closed
-    into fins, which :func:`meshwm.gim.remesh.geometry_image_to_mesh` drops.  Each takes the
+    into fins, which :func:`meshwm.gim.to_mesh.geometry_image_to_mesh` drops.  Each takes the
     vertex of the nearest sample along the perimeter that has one (the earlier one in perimeter
     order on a tie).  The embedder reads its cover through :func:`recover_grid` too, so both
     sides see the same values there.
@@ -1544,7 +1544,7 @@ def recover_grid(vertices: NDArray, faces: NDArray, *, size: int | None = None) 
         Vertex positions.  Only used to fill ``gim`` and to spread the seeds over the mesh;
         the grid is read from ``faces``.
     faces : (m, 3) int64 ndarray
-        Triangles as written by :func:`meshwm.gim.remesh.geometry_image_to_mesh`, then
+        Triangles as written by :func:`meshwm.gim.to_mesh.geometry_image_to_mesh`, then
         possibly re-indexed, re-welded, transformed, or cropped (faces removed, the remaining
         vertices re-indexed; several components are fine).
     size : int, optional
@@ -1585,7 +1585,7 @@ def recover_grid(vertices: NDArray, faces: NDArray, *, size: int | None = None) 
     Examples
     --------
     >>> import numpy as np
-    >>> from meshwm.gim.remesh import geometry_image_to_mesh
+    >>> from meshwm.gim.to_mesh import geometry_image_to_mesh
     >>> n = 16
     >>> i, j = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
     >>> gim = np.stack([i, j, np.sin(i + j)], axis=-1).astype(float)

@@ -52,7 +52,8 @@ from meshwm.attacks.library import (
 )
 from meshwm.errors import GridError
 from meshwm.gim.recover import recover_grid
-from meshwm.gim.remesh import geometry_image_to_mesh, mesh_to_geometry_image
+from meshwm.gim.remesh import mesh_to_geometry_image
+from meshwm.gim.to_mesh import geometry_image_to_mesh
 from meshwm.mesh.clean import unique_edges
 from meshwm.mesh.io import read_mesh, write_mesh
 

@@ -1,6 +1,6 @@
 """Tests for :mod:`meshwm.gim.recover`: reading the N×N grid back from a mesh's connectivity alone.
 
-The meshes are the ones meshwm writes (:func:`meshwm.gim.remesh.geometry_image_to_mesh`):
+The meshes are the ones meshwm writes (:func:`meshwm.gim.to_mesh.geometry_image_to_mesh`):
 an open synthetic grid, and the welded geometry images of the bundled meshes at N = 128; whole,
 or cropped (:func:`meshwm.attacks.library.crop`), or cut into pieces.
 """
@@ -18,13 +18,10 @@ from numpy.testing import assert_array_equal
 import meshwm.gim.recover as grid_module
 from meshwm.attacks.library import apply_attack, crop
 from meshwm.errors import GridError
+from meshwm.gim.code import code_cells, flipped_cells
 from meshwm.gim.recover import drop_irregular, recover_grid
-from meshwm.gim.remesh import (
-    code_cells,
-    flipped_cells,
-    geometry_image_to_mesh,
-    mesh_to_geometry_image,
-)
+from meshwm.gim.remesh import mesh_to_geometry_image
+from meshwm.gim.to_mesh import geometry_image_to_mesh
 from meshwm.mesh.clean import clean_mesh
 
 SIZE = 128

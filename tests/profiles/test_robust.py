@@ -237,7 +237,7 @@ def test_prepared_decoding_equals_one_shot_extraction():
 
 def test_received_mesh_decodes_many_keys_like_fresh_extractions():
     """ReceivedMesh prepares each candidate once and gives what extract_mesh_robust gives."""
-    from meshwm.gim.remesh import geometry_image_to_mesh
+    from meshwm.gim.to_mesh import geometry_image_to_mesh
     from meshwm.profiles.robust import ReceivedMesh, extract_mesh_robust
 
     n = 64
