@@ -26,7 +26,8 @@ from meshwm._validate import DEFAULT_MAX_FACES
 from meshwm.detect import DEFAULT_FPR, Verdict, decide, detection_p_value
 from meshwm.errors import CapacityError, GridError, MeshError
 from meshwm.gim.recover import recover_grid
-from meshwm.gim.remesh import GeometryImage, geometry_image_to_mesh, mesh_to_geometry_image
+from meshwm.gim.remesh import GeometryImage, mesh_to_geometry_image
+from meshwm.gim.to_mesh import geometry_image_to_mesh
 from meshwm.message.mark import _check_bits as check_mark_bits
 from meshwm.message.mark import default_mark
 from meshwm.message.payload import PAYLOAD_BITS, decode_id, encode_id
@@ -339,7 +340,7 @@ class Decoder:
 
     Examples
     --------
-    >>> from meshwm.gim.remesh import geometry_image_to_mesh
+    >>> from meshwm.gim.to_mesh import geometry_image_to_mesh
     >>> n = 64
     >>> i, j = np.meshgrid(np.linspace(0, 1, n), np.linspace(0, 1, n), indexing="ij")
     >>> gim = np.stack([i, j, 0.1 * np.sin(6 * i) * np.cos(5 * j)], axis=-1)

@@ -8,7 +8,7 @@ For one mesh (by default the ``*.ply`` with the most faces in ``../shared/meshes
 remesh
     The full stage as a user runs it, from file to file:
     ``meshwm.mesh.io.read_mesh(path)``, ``meshwm.gim.remesh.mesh_to_geometry_image(v, f, size=N)``,
-    ``meshwm.gim.remesh.geometry_image_to_mesh(...)`` and ``meshwm.mesh.io.write_mesh`` into a
+    ``meshwm.gim.to_mesh.geometry_image_to_mesh(...)`` and ``meshwm.mesh.io.write_mesh`` into a
     temporary directory.  Median wall time over ``--repeats`` runs.
 floor
     What the stage cannot go below: ``read_mesh`` of the same file plus ONE
@@ -58,6 +58,7 @@ import numpy as np  # noqa: E402
 from _machine import machine_info  # noqa: E402
 
 from meshwm.gim import remesh as gi  # noqa: E402
+from meshwm.gim import to_mesh  # noqa: E402
 from meshwm.mesh import io as mio  # noqa: E402
 
 
@@ -98,7 +99,7 @@ def remesh_once(path: Path, size: int, out: Path) -> tuple[dict[str, float], dic
     t1 = time.perf_counter()
     g = gi.mesh_to_geometry_image(v, f, size=size)
     t2 = time.perf_counter()
-    vo, fo = gi.geometry_image_to_mesh(
+    vo, fo = to_mesh.geometry_image_to_mesh(
         g.gim, g.weld, other_vertices=g.other_vertices, other_faces=g.other_faces
     )
     t3 = time.perf_counter()

@@ -3,7 +3,7 @@
 For every ``*.ply`` in the meshes directory (default ``../shared/meshes`` next to the repository,
 loaded with ``trimesh.load(path, process=False)``) the mesh is turned into a geometry image with
 :func:`meshwm.gim.remesh.mesh_to_geometry_image` at ``--size`` and back into a mesh with
-:func:`meshwm.gim.remesh.geometry_image_to_mesh` (seams welded, other components passed
+:func:`meshwm.gim.to_mesh.geometry_image_to_mesh` (seams welded, other components passed
 through), and one Markdown table row is printed with:
 
 V in, F in, V out, F out, s
@@ -86,7 +86,8 @@ import numpy as np  # noqa: E402
 import trimesh  # noqa: E402
 from scipy.spatial.transform import Rotation  # noqa: E402
 
-from meshwm.gim.remesh import geometry_image_to_mesh, mesh_to_geometry_image  # noqa: E402
+from meshwm.gim.remesh import mesh_to_geometry_image  # noqa: E402
+from meshwm.gim.to_mesh import geometry_image_to_mesh  # noqa: E402
 from meshwm.mesh.clean import unique_edges  # noqa: E402
 from meshwm.metrics import bounding_box_diagonal, surface_distance  # noqa: E402
 

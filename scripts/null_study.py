@@ -55,7 +55,8 @@ from _machine import machine_info  # noqa: E402
 from meshwm.attacks import smoothing, transforms  # noqa: E402
 from meshwm.detect import decide, detection_p_value  # noqa: E402
 from meshwm.errors import GridError  # noqa: E402
-from meshwm.gim.remesh import geometry_image_to_mesh, mesh_to_geometry_image  # noqa: E402
+from meshwm.gim.remesh import mesh_to_geometry_image  # noqa: E402
+from meshwm.gim.to_mesh import geometry_image_to_mesh  # noqa: E402
 from meshwm.mesh.io import read_mesh  # noqa: E402
 from meshwm.message.mark import default_mark  # noqa: E402
 from meshwm.message.payload import PAYLOAD_BITS  # noqa: E402

@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 from _recover_grids import SIZE, synthetic_gim
 
-from meshwm.gim.remesh import geometry_image_to_mesh, mesh_to_geometry_image
+from meshwm.gim.remesh import mesh_to_geometry_image
+from meshwm.gim.to_mesh import geometry_image_to_mesh
 
 
 @pytest.fixture(scope="session")

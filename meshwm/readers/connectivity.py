@@ -153,7 +153,7 @@ def read_connectivity(
 
     Examples
     --------
-    >>> from meshwm.gim.remesh import geometry_image_to_mesh
+    >>> from meshwm.gim.to_mesh import geometry_image_to_mesh
     >>> n = 64
     >>> i, j = np.meshgrid(np.linspace(0, 1, n), np.linspace(0, 1, n), indexing="ij")
     >>> gim = np.stack([i, j, 0.1 * np.sin(6 * i) * np.cos(5 * j)], axis=-1)

@@ -5,7 +5,7 @@ Section 3, steps 6-7 of the paper [1]_: "Compute Inputs (like Curvature, Area an
 the three inputs and nothing else.  This module defines them on CA, the level-1 Haar
 approximation of the geometry image (the x, y and z matrices stacked into an ``(M, M, 3)``
 array).  CA is a coarse grid of 3-D points, read as the open grid mesh of
-:func:`meshwm.gim.remesh.grid_faces` (seams not welded).  One level-3 coefficient covers a
+:func:`meshwm.gim.code.grid_faces` (seams not welded).  One level-3 coefficient covers a
 square *block* of ``block × block`` CA samples (``block = 4``: 8×8 image samples), and every
 input is one number per block.  The inputs therefore have the shape of a level-3 coefficient
 matrix, ``(M // block, M // block)``.
@@ -104,7 +104,7 @@ import igl
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from meshwm.gim.remesh import grid_faces
+from meshwm.gim.code import grid_faces
 from meshwm.signal.fuzzy import infer_strength
 
 __all__ = [

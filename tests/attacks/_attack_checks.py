@@ -10,7 +10,8 @@ import numpy as np
 import scipy.sparse as sp
 
 from meshwm.attacks import ATTACKS
-from meshwm.gim.remesh import geometry_image_to_mesh, mesh_to_geometry_image
+from meshwm.gim.remesh import mesh_to_geometry_image
+from meshwm.gim.to_mesh import geometry_image_to_mesh
 from meshwm.mesh.clean import unique_edges
 from meshwm.mesh.io import read_mesh
 

@@ -238,7 +238,7 @@ def test_prepared_decoding_equals_one_shot_extraction():
 
 def test_candidates_decode_many_keys_like_fresh_candidates():
     """Candidates prepare each image once and give what a fresh Candidates gives."""
-    from meshwm.gim.remesh import geometry_image_to_mesh
+    from meshwm.gim.to_mesh import geometry_image_to_mesh
     from meshwm.profiles.robust.search import Candidates
     from meshwm.readers.connectivity import read_connectivity
 

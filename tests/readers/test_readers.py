@@ -7,7 +7,7 @@ import pytest
 from numpy.testing import assert_allclose, assert_array_equal
 
 from meshwm.errors import GridError, MeshError
-from meshwm.gim.remesh import geometry_image_to_mesh
+from meshwm.gim.to_mesh import geometry_image_to_mesh
 from meshwm.mesh.clean import uniform_smoothing_operator
 from meshwm.readers import READERS, get_reader, read_received
 from meshwm.readers.connectivity import UNSMOOTH_LAMBDA, UNSMOOTH_STEPS, read_connectivity

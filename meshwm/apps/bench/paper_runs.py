@@ -37,7 +37,7 @@ from meshwm.apps.bench.steps import (
     step_used,
 )
 from meshwm.gim.recover import recover_grid
-from meshwm.gim.remesh import geometry_image_to_mesh
+from meshwm.gim.to_mesh import geometry_image_to_mesh
 from meshwm.message.mark import default_mark
 from meshwm.params import WatermarkParams
 from meshwm.watermark import Embedded, embed

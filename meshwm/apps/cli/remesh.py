@@ -56,7 +56,8 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
 
 def run(args: argparse.Namespace) -> int:
     """Remesh ``args.input`` into ``args.output``; print the report."""
-    from meshwm.gim.remesh import geometry_image_to_mesh, mesh_to_geometry_image
+    from meshwm.gim.remesh import mesh_to_geometry_image
+    from meshwm.gim.to_mesh import geometry_image_to_mesh
     from meshwm.mesh.io import check_output, read_mesh, write_mesh
     from meshwm.metrics import surface_distance
 

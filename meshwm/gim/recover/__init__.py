@@ -4,11 +4,11 @@ Blind extraction gets a mesh and nothing else: no vertex order (files are re-ind
 round trip un-indexes and re-welds every vertex), no side file, and maybe not the whole mesh
 (a crop removes part of the surface and can split the rest into pieces).  What survives is the
 connectivity of what is left, and meshwm writes that connectivity itself
-(:func:`meshwm.gim.remesh.grid_faces`): two triangles per grid cell with alternating
+(:func:`meshwm.gim.code.grid_faces`): two triangles per grid cell with alternating
 diagonals (a 4-8 mesh: interior samples with i + j even have 8 neighbours, the others 4),
 welded along the cut seams, and a *position code*: the code cells (i and j even, off the
 border) whose public bit is 1 have their diagonal flipped
-(:func:`meshwm.gim.remesh.flipped_cells`).
+(:func:`meshwm.gim.code.flipped_cells`).
 
 :func:`recover_grid` finds which vertex is grid sample (i, j):
 

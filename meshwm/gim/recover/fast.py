@@ -15,6 +15,7 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
+from meshwm.gim.code import flipped_cells
 from meshwm.gim.recover.adjacency import _Lookup, _Mesh
 from meshwm.gim.recover.components import _read_components
 from meshwm.gim.recover.matching import _TRANSFORMS, _code
@@ -24,11 +25,10 @@ from meshwm.gim.recover.seeds import _SEEDS
 from meshwm.gim.recover.sizes import _MIN_SIZE, _candidate_sizes
 from meshwm.gim.recover.table import _grid_table
 from meshwm.gim.recover.verify import _explained, _fill_fold_tips
-from meshwm.gim.remesh import flipped_cells
 
 
 class _RunTable(NamedTuple):
-    """The interior cells of an N-grid as :func:`meshwm.gim.remesh.grid_faces` lists them: rows
+    """The interior cells of an N-grid as :func:`meshwm.gim.code.grid_faces` lists them: rows
     of cells 1..N-3, columns 1..N-3, each row a contiguous run of faces; and the border cells'
     faces."""
 
@@ -123,7 +123,7 @@ def _read_in_order(
 ) -> RecoveredGrid | None:
     """A complete grid read with the help of its face order, or None (then the order-free way).
 
-    Every file meshwm writes lists the grid's faces in :func:`~meshwm.gim.remesh.grid_faces`
+    Every file meshwm writes lists the grid's faces in :func:`~meshwm.gim.code.grid_faces`
     order (less the triangles a welded seam collapsed, all in border cells), then the
     components passed through, and most pipelines keep that order: format conversions,
     transforms, merging duplicate vertices (the vertex order does not matter here).  Then the

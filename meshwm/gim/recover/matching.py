@@ -17,8 +17,8 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import ndimage
 
+from meshwm.gim.code import code_cells, flipped_cells
 from meshwm.gim.recover.seeds import _window
-from meshwm.gim.remesh import code_cells, flipped_cells
 
 _KEY = 5  # side of the exactly matched key block (25 bits)
 _KEYS = 6  # key blocks tried per window
@@ -45,7 +45,7 @@ class _Code(NamedTuple):
 
 @functools.lru_cache(maxsize=8)
 def _code(n: int) -> _Code:
-    """The code of an N-grid (:func:`meshwm.gim.remesh.flipped_cells`) and its key index."""
+    """The code of an N-grid (:func:`meshwm.gim.code.flipped_cells`) and its key index."""
     h = n // 2
     flip = flipped_cells(n)
     cells = np.zeros((n - 1, n - 1), dtype=np.int8)

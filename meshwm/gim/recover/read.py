@@ -32,7 +32,7 @@ def recover_grid(vertices: NDArray, faces: NDArray, *, size: int | None = None) 
         Vertex positions.  Only used to fill ``gim`` and to spread the seeds over the mesh;
         the grid is read from ``faces``.
     faces : (m, 3) int64 ndarray
-        Triangles as written by :func:`meshwm.gim.remesh.geometry_image_to_mesh`, then
+        Triangles as written by :func:`meshwm.gim.to_mesh.geometry_image_to_mesh`, then
         possibly re-indexed, re-welded, transformed, or cropped (faces removed, the remaining
         vertices re-indexed; several components are fine).
     size : int, optional
@@ -73,7 +73,7 @@ def recover_grid(vertices: NDArray, faces: NDArray, *, size: int | None = None) 
     Examples
     --------
     >>> import numpy as np
-    >>> from meshwm.gim.remesh import geometry_image_to_mesh
+    >>> from meshwm.gim.to_mesh import geometry_image_to_mesh
     >>> n = 16
     >>> i, j = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
     >>> gim = np.stack([i, j, np.sin(i + j)], axis=-1).astype(float)

@@ -1,6 +1,6 @@
 """The grid side of grid recovery: the triangles of an N-grid and the rows the walk steps by.
 
-:class:`_GridTable` lists the grid triangles as :func:`meshwm.gim.remesh.grid_faces` writes them,
+:class:`_GridTable` lists the grid triangles as :func:`meshwm.gim.code.grid_faces` writes them,
 the border rows with their trust, the re-entry rows, the perimeter neighbours of each border
 sample, and the cells in each of their 4 rotations; interior rows are computed on demand from the
 positions they touch.  One table per N, cached (:func:`_grid_table`).
@@ -13,7 +13,7 @@ import functools
 import numpy as np
 from numpy.typing import NDArray
 
-from meshwm.gim.remesh import grid_faces
+from meshwm.gim.code import grid_faces
 
 
 class _GridTable:

@@ -57,7 +57,7 @@ def _fill_fold_tips(index: NDArray[np.int64], table: _GridTable) -> None:
 
     Only for a complete grid (see :func:`~meshwm.gim.recover.recover_grid`): there the missing
     samples are the tips of welded folds (a cut end, or the two corners a path cut joins):
-    their triangles closed into fins, which :func:`meshwm.gim.remesh.geometry_image_to_mesh`
+    their triangles closed into fins, which :func:`meshwm.gim.to_mesh.geometry_image_to_mesh`
     drops.  Each takes the vertex of the nearest sample along the perimeter that has one (the
     earlier one in perimeter order on a tie).  The embedder reads its cover through
     :func:`~meshwm.gim.recover.recover_grid` too, so both sides see the same values there.

@@ -11,7 +11,7 @@ from numpy.testing import assert_array_equal
 
 from meshwm.attacks.transforms import crop
 from meshwm.gim.recover import recover_grid
-from meshwm.gim.remesh import geometry_image_to_mesh
+from meshwm.gim.to_mesh import geometry_image_to_mesh
 
 
 def test_pieces_are_read_and_merged(sheet):

@@ -13,7 +13,7 @@ import meshwm.gim.recover.read as read_module
 import meshwm.gim.recover.sizes as sizes_module
 from meshwm.errors import GridError
 from meshwm.gim.recover import recover_grid
-from meshwm.gim.remesh import geometry_image_to_mesh
+from meshwm.gim.to_mesh import geometry_image_to_mesh
 
 
 def _order_free(monkeypatch, v, f, **kwargs):

@@ -1,8 +1,8 @@
 """Tests for the position code as :mod:`meshwm.gim.recover.matching` reads it: its cells, its bits,
 no symmetry of the square, and no grid found without it.
 
-The code itself is written by :func:`meshwm.gim.remesh.code_cells` and
-:func:`meshwm.gim.remesh.flipped_cells`; these are the properties the matching relies on.
+The code itself is written by :func:`meshwm.gim.code.code_cells` and
+:func:`meshwm.gim.code.flipped_cells`; these are the properties the matching relies on.
 """
 
 from __future__ import annotations
@@ -15,8 +15,8 @@ from _recover_grids import unflip
 from numpy.testing import assert_array_equal
 
 from meshwm.errors import GridError
+from meshwm.gim.code import code_cells, flipped_cells
 from meshwm.gim.recover import recover_grid
-from meshwm.gim.remesh import code_cells, flipped_cells
 
 
 def test_without_the_position_code_no_grid_is_found(open_grid):

@@ -22,8 +22,8 @@ from numpy.testing import assert_array_equal
 
 from meshwm.attacks.transforms import crop
 from meshwm.errors import GridError
+from meshwm.gim.code import flipped_cells
 from meshwm.gim.recover import recover_grid
-from meshwm.gim.remesh import flipped_cells
 
 
 @pytest.mark.parametrize("k", [0, 100, 300])

@@ -1,7 +1,7 @@
 """Tests for :func:`meshwm.gim.recover.recover_grid` (:mod:`meshwm.gim.recover.read`): reading the
 N×N grid back from a mesh's connectivity alone, and refusing what is no meshwm grid.
 
-The meshes are the ones meshwm writes (:func:`meshwm.gim.remesh.geometry_image_to_mesh`):
+The meshes are the ones meshwm writes (:func:`meshwm.gim.to_mesh.geometry_image_to_mesh`):
 an open synthetic grid, and the welded geometry images of the bundled meshes at N = 128.
 """
 
@@ -18,7 +18,8 @@ from numpy.testing import assert_array_equal
 from meshwm.attacks import apply_attack
 from meshwm.errors import GridError
 from meshwm.gim.recover import recover_grid
-from meshwm.gim.remesh import geometry_image_to_mesh, mesh_to_geometry_image
+from meshwm.gim.remesh import mesh_to_geometry_image
+from meshwm.gim.to_mesh import geometry_image_to_mesh
 from meshwm.mesh.clean import clean_mesh
 
 # --- the open grid (no weld) -------------------------------------------------------------------

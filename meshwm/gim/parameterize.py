@@ -1,0 +1,192 @@
+"""The interior map: a harmonic map of the disk onto the unit square, reweighted for stretch.
+
+A harmonic map with cotangent weights clamped to be positive: with all weights positive and a
+convex boundary, Tutte/Floater's theorem guarantees an embedding (no flipped triangle), which the
+plain cotangent map does not on meshes with obtuse triangles.  The flipped count is still
+measured and reported (:func:`meshwm.gim.remesh.mesh_to_geometry_image`).  The boundary is fixed
+where :mod:`meshwm.gim.boundary` puts it; :func:`stretch_parameterize` then reweights the edges
+to spread the grid samples over the surface, and :func:`grid_step` measures how far apart they
+fall around each vertex.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import igl
+import numpy as np
+import scipy.sparse as sp
+from numpy.typing import NDArray
+
+__all__ = ["flat_faces", "grid_step", "signed_uv_area", "stretch_parameterize"]
+
+
+def _laplacian_pattern(
+    vertices: NDArray[np.float64], faces: NDArray[np.int64]
+) -> tuple[NDArray, NDArray, NDArray]:
+    """Rows, columns and positive-clamped cotangent weights of the mesh Laplacian."""
+    lap = igl.cotmatrix(vertices, faces).tocoo()
+    off = lap.row != lap.col
+    rows, cols, w = lap.row[off], lap.col[off], lap.data[off]
+    floor = 1e-3 * np.median(np.abs(w))
+    return rows, cols, np.maximum(w, floor)
+
+
+def _solve_fixed_boundary(
+    rows: NDArray, cols: NDArray, w: NDArray, boundary: NDArray, boundary_uv: NDArray, nv: int
+) -> NDArray[np.float64]:
+    weights = sp.coo_matrix((w, (rows, cols)), shape=(nv, nv)).tocsr()
+    degree = np.asarray(weights.sum(axis=1)).ravel()
+    q = (sp.diags(degree) - weights).tocsc()  # symmetric positive semi-definite
+    uv = igl.min_quad_with_fixed(
+        q, np.zeros((nv, 2)), boundary, boundary_uv, sp.csc_matrix((0, nv)), np.zeros((0, 2)), True
+    )
+    return np.asarray(uv, dtype=np.float64)
+
+
+def _face_stretch(
+    vertices: NDArray[np.float64],
+    faces: NDArray[np.int64],
+    uv: NDArray[np.float64],
+    flat: NDArray[np.bool_],
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Sander et al.'s L2 stretch of the map UV -> 3-D per face, and the faces' 3-D areas."""
+    q1, q2, q3 = vertices[faces[:, 0]], vertices[faces[:, 1]], vertices[faces[:, 2]]
+    s1, s2, s3 = uv[faces[:, 0]], uv[faces[:, 1]], uv[faces[:, 2]]
+    area_uv = signed_uv_area(uv, faces)
+    # A triangle with all three corners on one side of the square has no UV area, whatever the
+    # weights: it takes no part in the stretch (its samples come from the boundary chains).
+    area_uv = np.where(flat | (area_uv == 0), 1.0, area_uv)[:, None]
+    ds = (
+        q1 * (s2[:, 1] - s3[:, 1])[:, None]
+        + q2 * (s3[:, 1] - s1[:, 1])[:, None]
+        + q3 * (s1[:, 1] - s2[:, 1])[:, None]
+    ) / (2 * area_uv)
+    dt = (
+        q1 * (s3[:, 0] - s2[:, 0])[:, None]
+        + q2 * (s1[:, 0] - s3[:, 0])[:, None]
+        + q3 * (s2[:, 0] - s1[:, 0])[:, None]
+    ) / (2 * area_uv)
+    sigma = np.sqrt(0.5 * ((ds**2).sum(axis=1) + (dt**2).sum(axis=1)))
+    area3 = 0.5 * np.linalg.norm(np.cross(q2 - q1, q3 - q1), axis=1)
+    sigma[flat] = 0.0
+    area3[flat] = 0.0
+    return sigma, area3
+
+
+def flat_faces(
+    faces: NDArray[np.int64], boundary: NDArray[np.int64], boundary_uv: NDArray[np.float64]
+) -> NDArray[np.bool_]:
+    """Faces whose three corners are fixed on the same side of the square (zero UV area).
+
+    Decided from the exact boundary positions, not from a computed area, so that it does not
+    depend on rounding (which a rotated copy of the mesh would change).
+    """
+    nv = int(faces.max()) + 1
+    sides = np.zeros((nv, 4), dtype=bool)
+    u, v = boundary_uv[:, 0], boundary_uv[:, 1]
+    sides[boundary] = np.stack([v == 0.0, u == 1.0, v == 1.0, u == 0.0], axis=1)
+    return np.any(sides[faces[:, 0]] & sides[faces[:, 1]] & sides[faces[:, 2]], axis=1)
+
+
+def stretch_parameterize(
+    vertices: NDArray[np.float64],
+    faces: NDArray[np.int64],
+    boundary: NDArray[np.int64],
+    boundary_uv: NDArray[np.float64],
+    *,
+    iterations: int,
+    good_enough: Callable[[NDArray[np.float64]], bool] | None = None,
+    accept: Callable[[NDArray[np.float64]], bool] | None = None,
+) -> tuple[NDArray[np.float64], list[float]]:
+    """Harmonic map, then stretch-minimising reweighting (Yoshizawa, Belyaev, Seidel 2004).
+
+    Starts from the harmonic map with positive-clamped cotangent weights (an embedding for a
+    convex boundary, Floater 2003).  Each iteration divides every edge weight by the square of
+    the mean L2 stretch (Sander et al. 2001) of its two end vertices and solves again; weights
+    stay positive and symmetric, so each map is still an embedding.  A conformal map squeezes
+    protrusions (a cow's legs) exponentially, which starves them of grid samples; this pulls UV
+    area back to where the surface is.  Stops after ``iterations`` or when the global stretch
+    no longer falls by 1 %, or as soon as ``good_enough(uv)`` holds, and returns the best map
+    and the global stretch of each map.  If ``accept(uv)`` holds for the harmonic map itself,
+    that map is returned as it is (a surface it already samples evenly needs no reweighting).
+    """
+    nv = len(vertices)
+    flat = flat_faces(faces, boundary, boundary_uv)
+    rows, cols, w = _laplacian_pattern(vertices, faces)
+    uv = _solve_fixed_boundary(rows, cols, w, boundary, boundary_uv, nv)
+    if accept is not None and accept(uv):
+        sigma, area3 = _face_stretch(vertices, faces, uv, flat)
+        return uv, [float(np.sqrt((area3 * sigma**2).sum() / area3.sum()))]
+    corner = faces.ravel()
+    history: list[float] = []
+    best = (np.inf, uv, w)
+    power = 2.0
+    for it in range(iterations + 1):
+        sigma, area3 = _face_stretch(vertices, faces, uv, flat)
+        total = float(np.sqrt((area3 * sigma**2).sum() / area3.sum()))
+        history.append(total)
+        if total < best[0]:
+            improved = total < 0.99 * best[0]
+            best = (total, uv, w)
+        else:
+            # Overshot: go back to the best weights and take a gentler step from there.
+            improved = False
+            power *= 0.5
+            _, uv, w = best
+            sigma, area3 = _face_stretch(vertices, faces, uv, flat)
+        if it == iterations or (not improved and power < 0.25):
+            break
+        if improved and good_enough is not None and good_enough(uv):
+            break
+        num = np.bincount(corner, weights=np.repeat(area3 * sigma**2, 3), minlength=nv)
+        den = np.bincount(corner, weights=np.repeat(area3, 3), minlength=nv)
+        vertex_sigma = np.sqrt(num / np.maximum(den, np.finfo(float).tiny))
+        typical = np.median(vertex_sigma[den > 0])
+        # Bound each step's reweighting to six orders of magnitude: keeps the system well posed.
+        vertex_sigma = np.clip(
+            np.where(den > 0, vertex_sigma, typical), typical * 1e-3, typical * 1e3
+        )
+        w = w / (0.5 * (vertex_sigma[rows] + vertex_sigma[cols]) / typical) ** power
+        w = np.clip(w / np.median(w), 1e-12, 1e12)
+        uv = _solve_fixed_boundary(rows, cols, w, boundary, boundary_uv, nv)
+    best_uv = best[1]
+    return best_uv, history
+
+
+def signed_uv_area(uv: NDArray[np.float64], faces: NDArray[np.int64]) -> NDArray[np.float64]:
+    """Signed area of each face in UV, positive for counter-clockwise."""
+    a, b, c = uv[faces[:, 0]], uv[faces[:, 1]], uv[faces[:, 2]]
+    return 0.5 * (
+        (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
+    )
+
+
+def grid_step(
+    vertices: NDArray[np.float64],
+    faces: NDArray[np.int64],
+    uv: NDArray[np.float64],
+    origin: NDArray[np.int64],
+    n_orig: int,
+    graph: sp.csr_matrix,
+    flat: NDArray[np.bool_],
+) -> NDArray[np.float64]:
+    """Per original vertex: the 3-D length one UV unit spans, sqrt(3-D area / UV area).
+
+    Areas are summed over each vertex's two-ring, so a single sliver does not decide.  Divided
+    by N - 1 this is the spacing of the grid samples on the surface around the vertex.
+    """
+    tri = vertices[faces]
+    a3 = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
+    auv = np.abs(signed_uv_area(uv, faces))
+    a3 = np.where(flat, 0.0, a3)
+    auv = np.where(flat, 0.0, auv)
+    corner = origin[faces].ravel()
+    v3 = np.bincount(corner, weights=np.repeat(a3, 3), minlength=n_orig)
+    vuv = np.bincount(corner, weights=np.repeat(auv, 3), minlength=n_orig)
+    adj = graph.copy()
+    adj.data[:] = 1.0
+    adj = adj + sp.identity(n_orig, format="csr")
+    v3 = adj @ (adj @ v3)
+    vuv = adj @ (adj @ vuv)
+    return np.sqrt(v3 / np.maximum(vuv, np.finfo(float).tiny))

@@ -1,0 +1,82 @@
+"""Back from a geometry image to a triangle mesh: the grid triangulation, its seams welded.
+
+Every grid sample becomes a vertex and every cell two triangles
+(:func:`meshwm.gim.code.grid_faces`, which carries the position code).  With the weld map of
+:func:`meshwm.gim.remesh.mesh_to_geometry_image` the two sides of each cut become one vertex,
+which closes the seams; triangles that collapse there, and the pairs of opposite triangles
+(fins) left at the ends of a cut, are dropped.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+from meshwm.gim.code import grid_faces
+
+__all__ = ["geometry_image_to_mesh"]
+
+
+def _weld_faces(faces: NDArray[np.int64], weld: NDArray[np.int64]) -> NDArray[np.int64]:
+    """Grid triangles on the welded samples, collapsed triangles and fins left out."""
+    root = np.asarray(weld, dtype=np.int64).reshape(-1)
+    faces = root[faces]
+    bad = (faces[:, 0] == faces[:, 1]) | (faces[:, 1] == faces[:, 2]) | (faces[:, 0] == faces[:, 2])
+    faces = faces[~bad]
+    # A welded cut end leaves a pair of opposite triangles on the same three vertices (a
+    # fin): drop both.
+    key = np.sort(faces, axis=1)
+    order = np.lexsort(key.T[::-1])
+    ks = key[order]
+    same = np.all(ks[1:] == ks[:-1], axis=1)
+    twin = np.zeros(len(faces), dtype=bool)
+    twin[order[1:][same]] = True
+    twin[order[:-1][same]] = True
+    return faces[~twin]
+
+
+def geometry_image_to_mesh(
+    gim: NDArray[np.float64],
+    weld: NDArray[np.int64] | None = None,
+    *,
+    other_vertices: NDArray | None = None,
+    other_faces: NDArray | None = None,
+) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+    """Turn a geometry image back into a triangle mesh.
+
+    Parameters
+    ----------
+    gim : (N, N, 3) float64 ndarray
+        The geometry image.
+    weld : (N, N) int64 ndarray, optional
+        Weld map from :func:`meshwm.gim.remesh.mesh_to_geometry_image`; welded samples become
+        one vertex, which closes the cut seams.  Without it the grid is returned open.
+    other_vertices, other_faces : ndarray, optional
+        Extra components appended unchanged after the grid.
+
+    Returns
+    -------
+    vertices : (k, 3) float64 ndarray
+        Grid vertices in row-major order (welded and unused ones left out), then the others.
+    faces : (l, 3) int64 ndarray
+        Two triangles per cell, oriented like the input; triangles that collapse when a seam
+        is welded (at the ends of a cut) are left out.
+    """
+    gim = np.asarray(gim, dtype=np.float64)
+    if gim.ndim != 3 or gim.shape[0] != gim.shape[1] or gim.shape[2] != 3:
+        raise ValueError(f"gim must have shape (N, N, 3), got {gim.shape}")
+    n = gim.shape[0]
+    flat = gim.reshape(-1, 3)
+    faces = grid_faces(n)
+    if weld is not None:
+        faces = _weld_faces(faces, weld)
+    used = np.zeros(n * n, dtype=bool)
+    used[faces.ravel()] = True
+    remap = np.cumsum(used) - 1
+    vertices = flat[used]
+    faces = remap[faces]
+    if other_faces is not None and len(other_faces):
+        ov = np.asarray(other_vertices, dtype=np.float64)
+        faces = np.vstack([faces, np.asarray(other_faces, dtype=np.int64) + len(vertices)])
+        vertices = np.vstack([vertices, ov])
+    return vertices, faces.astype(np.int64)

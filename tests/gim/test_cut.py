@@ -1,0 +1,84 @@
+"""Tests for :mod:`meshwm.gim.cut`: cutting a mesh open into a disk, and extending the cut."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.sparse.csgraph import connected_components
+
+from meshwm.errors import MeshError
+from meshwm.gim.cut import (
+    area_centroid,
+    count_loops,
+    cut_open,
+    edge_graph,
+    extend_cut,
+    initial_cut,
+    path_edges,
+)
+from meshwm.mesh.clean import clean_mesh, edge_topology_counts, unique_edges
+
+
+def _graph_and_radial(vertices, faces):
+    edges, _ = unique_edges(faces)
+    radial = np.linalg.norm(vertices - area_centroid(vertices, faces), axis=1)
+    return edge_graph(vertices, edges), radial
+
+
+def test_closed_genus0_mesh_is_cut_along_one_path_into_a_disk(ellipsoid):
+    v, f = ellipsoid
+    graph, _ = _graph_and_radial(v, f)
+    paths = initial_cut(v, f, graph, closed_genus0=True)
+    assert len(paths) == 1
+    path = paths[0]
+    assert len(np.unique(path)) == len(path) >= 3  # a simple path
+    cut = cut_open(v, f, paths)
+    chi = len(cut.vertices) - edge_topology_counts(cut.faces)[0] + len(cut.faces)
+    assert chi == 1
+    # Inner path vertices are split in two, its ends are not.
+    assert len(cut.vertices) == len(v) + len(path) - 2
+    assert np.array_equal(cut.vertices, v[cut.origin])
+
+
+def test_a_torus_is_cut_into_a_disk_by_cut_to_disk(kitten_mesh):
+    clean = clean_mesh(*kitten_mesh)
+    v, f = clean.vertices, clean.faces
+    graph, _ = _graph_and_radial(v, f)
+    paths = initial_cut(v, f, graph, closed_genus0=False)
+    assert len(paths) >= 2  # genus 1: two loops at least
+    cut = cut_open(v, f, paths)
+    assert len(cut.vertices) - edge_topology_counts(cut.faces)[0] + len(cut.faces) == 1
+
+
+def test_an_uncut_closed_mesh_is_not_a_disk(ellipsoid):
+    with pytest.raises(MeshError, match="could not cut the mesh open into a disk"):
+        cut_open(*ellipsoid, [])
+
+
+def test_count_loops(flat_square, ellipsoid):
+    for (v, f), loops in ((flat_square, 1), (ellipsoid, 0)):
+        edges, inverse = unique_edges(f)
+        border = np.bincount(inverse, minlength=len(edges)) == 1
+        assert count_loops(len(v), edges, border) == loops
+
+
+def test_path_edges():
+    paths = [np.array([0, 1, 2]), np.array([5]), np.array([3, 4])]
+    assert path_edges(paths).tolist() == [[0, 1], [1, 2], [3, 4]]
+    assert path_edges([]).shape == (0, 2)
+
+
+def test_extend_cut_adds_one_path_per_region_back_to_the_cut(ellipsoid):
+    v, f = ellipsoid
+    graph, radial = _graph_and_radial(v, f)
+    paths = initial_cut(v, f, graph, closed_genus0=True)
+    on_cut = np.zeros(len(v), dtype=bool)
+    on_cut[paths[0]] = True
+    undersampled = np.abs(v[:, 1]) > 0.8  # two caps, either side of the cut
+    _, region = connected_components(graph[undersampled][:, undersampled], directed=False)
+    more = extend_cut(paths, graph, on_cut=on_cut, undersampled=undersampled, radial=radial)
+    assert len(more) == len(paths) + len(np.unique(region))
+    assert all(a is b for a, b in zip(paths, more, strict=False))  # the old paths are kept
+    for path in more[len(paths) :]:
+        assert undersampled[path[0]] and on_cut[path[-1]]
+        assert np.all(graph[path[:-1], path[1:]] > 0)  # a path along edges
