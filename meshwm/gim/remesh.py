@@ -30,7 +30,7 @@ References
 ----------
 .. [1] X. Gu, S. J. Gortler, H. Hoppe, "Geometry images", ACM TOG 21(3), 2002.
 .. [2] S. C. Tamane, R. R. Deshmukh, "Blind 3D model watermarking based on multi-resolution
-   representation and fuzzy logic", section 3 (../shared/seed/000_4f8ee2d18af97990.txt).
+   representation and fuzzy logic", section 3.
 """
 
 from __future__ import annotations
