@@ -3,7 +3,8 @@
 Prints, for the ``meshwm`` package:
 
 - every cycle in the graph of imports between meshwm modules (module-level imports and imports
-  inside functions alike; imports under ``if TYPE_CHECKING:`` are skipped, they never run);
+  inside functions alike; imports under ``if TYPE_CHECKING:`` are skipped, they never run;
+  ``from pkg import submodule`` is an edge to the submodule only);
 - every module over ``--max-module`` lines (default 500) and every function over
   ``--max-function`` lines of code (default 80; docstrings, comments and blank lines not
   counted);
@@ -53,13 +54,12 @@ def _imports(tree: ast.AST, modules: set[str], here: str) -> set[str]:
         if isinstance(node, ast.Import):
             found.update(a.name for a in node.names if a.name in modules)
         elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
-            if node.module in modules:
+            # ``from pkg import sub`` imports the submodule; the package's own ``__init__``
+            # runs for every import below it and is no edge of its own.
+            subs = {f"{node.module}.{a.name}" for a in node.names} & modules
+            if node.module in modules and len(subs) < len(node.names):
                 found.add(node.module)
-            found.update(
-                f"{node.module}.{a.name}"
-                for a in node.names
-                if f"{node.module}.{a.name}" in modules
-            )
+            found.update(subs)
         for child in ast.iter_child_nodes(node):
             visit(child)
 
