@@ -191,6 +191,22 @@ def _draw_view(
     ax.set_ylim(centre[1] - half, centre[1] + half)
 
 
+def _value_norm(face_values: NDArray, value_range: ArrayLike | None) -> Normalize:
+    """The colour scale: ``value_range``, or the values' own range (widened if constant)."""
+    if value_range is None:
+        lo, hi = float(face_values.min()), float(face_values.max())
+    else:
+        bounds = np.asarray(value_range, dtype=np.float64)
+        if bounds.shape != (2,) or not np.isfinite(bounds).all() or bounds[0] > bounds[1]:
+            raise ValueError(
+                f"value_range must be two finite numbers, low <= high, got {value_range}"
+            )
+        lo, hi = float(bounds[0]), float(bounds[1])
+    if hi <= lo:  # constant values: any range shows them, one where they sit at the bottom
+        hi = lo + (abs(lo) if lo != 0 else 1.0)
+    return Normalize(lo, hi, clip=True)
+
+
 def render_views(
     vertices: ArrayLike,
     faces: ArrayLike,
@@ -268,18 +284,7 @@ def render_views(
     v = _normalised(v, f)
 
     if face_values is not None:
-        if value_range is None:
-            lo, hi = float(face_values.min()), float(face_values.max())
-        else:
-            bounds = np.asarray(value_range, dtype=np.float64)
-            if bounds.shape != (2,) or not np.isfinite(bounds).all() or bounds[0] > bounds[1]:
-                raise ValueError(
-                    f"value_range must be two finite numbers, low <= high, got {value_range}"
-                )
-            lo, hi = float(bounds[0]), float(bounds[1])
-        if hi <= lo:  # constant values: any range shows them, one where they sit at the bottom
-            hi = lo + (abs(lo) if lo != 0 else 1.0)
-        norm = Normalize(lo, hi, clip=True)
+        norm = _value_norm(face_values, value_range)
         rgb = colormap(norm(face_values))[:, :3]
 
         def shade(i: NDArray) -> NDArray:

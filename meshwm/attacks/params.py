@@ -145,6 +145,16 @@ ATTACK_PARAMS: dict[str, tuple[AttackParam, ...]] = {
         ),
     ),
     "rotation": (),
+    "translation": (
+        AttackParam(
+            "distance",
+            float,
+            10.0,
+            "length of the move, in bounding-box diagonals",
+            low=0,
+            open_low=True,
+        ),
+    ),
     "scaling": (
         AttackParam(
             "factor",

@@ -27,6 +27,7 @@ _IMAGE = "meshwm.attacks.image"
 _MODULES: dict[str, str] = {
     "similarity": _TRANSFORMS,
     "rotation": _TRANSFORMS,
+    "translation": _TRANSFORMS,
     "scaling": _TRANSFORMS,
     "reorder": _TRANSFORMS,
     "noise": _TRANSFORMS,

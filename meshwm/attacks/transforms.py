@@ -95,6 +95,28 @@ def scaling(vertices: NDArray, faces: NDArray, *, seed: int = 0, factor: float =
     return (v - centre) * factor + centre, np.asarray(faces, dtype=np.int64)
 
 
+def translation(
+    vertices: NDArray, faces: NDArray, *, seed: int = 0, distance: float = 10.0
+) -> Mesh:
+    """A translation by ``distance`` bounding-box diagonals in a random direction (``seed``).
+
+    The direction is uniform on the sphere (a normalised Gaussian vector); the faces are
+    returned unchanged.
+
+    Examples
+    --------
+    >>> v = np.array([[0.0, 0.0, 0.0], [3.0, 0.0, 0.0], [0.0, 4.0, 0.0]])
+    >>> v2, _ = translation(v, [[0, 1, 2]], seed=1, distance=2.0)
+    >>> float(np.linalg.norm(v2[0] - v[0]))  # 2 diagonals of length 5
+    10.0
+    """
+    distance = check_options("translation", distance=distance)["distance"]
+    v = np.asarray(vertices, dtype=np.float64)
+    d = np.random.default_rng(seed).normal(size=3)
+    diag = float(np.linalg.norm(np.ptp(v, axis=0)))
+    return v + distance * diag * d / np.linalg.norm(d), np.asarray(faces, dtype=np.int64)
+
+
 def reorder(vertices: NDArray, faces: NDArray, *, seed: int = 0) -> Mesh:
     """Random permutation of the vertices, of the faces, and a cyclic shift within each face."""
     rng = np.random.default_rng(seed)

@@ -20,6 +20,7 @@ SPOT = Path(__file__).parent.parent.parent / "assets" / "spot.ply"
 RANDOM = [
     "similarity",
     "rotation",
+    "translation",
     "reorder",
     "noise",
     "crop",
@@ -33,6 +34,7 @@ GIM = sorted(name for name in ATTACKS if name.startswith("gim_"))
 SAME_FACES = [
     "similarity",
     "rotation",
+    "translation",
     "scaling",
     "noise",
     "float32",

@@ -116,7 +116,8 @@ def test_unknown_attack_lists_the_valid_names(mesh):
 def test_registry_names_its_functions():
     assert ATTACKS["similarity"] is similarity
     assert set(ATTACKS) == {
-        *("similarity", "rotation", "scaling", "reorder", "noise", "float32", "round_trip"),
+        *("similarity", "rotation", "translation", "scaling", "reorder", "noise", "float32"),
+        "round_trip",
         *("laplacian", "meshlab_laplacian", "taubin", "quantize", "crop", "simplify"),
         *("subdivide_midpoint", "subdivide_loop"),
         *("gim_gaussian", "gim_log", "gim_laplacian", "gim_salt_pepper", "gim_noise", "gim_crop"),

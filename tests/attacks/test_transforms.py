@@ -28,6 +28,7 @@ from meshwm.attacks.transforms import (
     round_trip,
     scaling,
     similarity,
+    translation,
 )
 
 
@@ -106,6 +107,19 @@ def test_scaling_scales_about_the_centroid(mesh, factor):
     assert_allclose(v2.mean(axis=0), centre, rtol=0, atol=1e-12)
     assert_allclose(_edge_lengths(v2, f) / _edge_lengths(v, f), factor, rtol=1e-9)
     assert_array_equal(scaling(v, f, seed=7, factor=factor)[0], v2)  # seed ignored
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_translation_moves_every_vertex_by_the_same_seeded_vector(mesh, seed):
+    v, f = mesh
+    v2, f2 = translation(v, f, seed=seed, distance=3.0)
+    assert_array_equal(f2, f)
+    shift = v2 - v
+    assert_allclose(shift, np.broadcast_to(shift[0], shift.shape), rtol=0, atol=1e-9)
+    diag = float(np.linalg.norm(np.ptp(v, axis=0)))
+    assert_allclose(np.linalg.norm(shift[0]), 3.0 * diag, rtol=1e-12)
+    assert_array_equal(translation(v, f, seed=seed, distance=3.0)[0], v2)
+    assert not np.array_equal(translation(v, f, seed=seed + 1, distance=3.0)[0], v2)
 
 
 def test_scaling_default_factor_is_two(mesh):

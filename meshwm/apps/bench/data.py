@@ -10,10 +10,8 @@ function; the other modules of :mod:`meshwm.apps.bench` read it.
 from __future__ import annotations
 
 import zlib
-from collections.abc import Callable
 from typing import Any, NamedTuple
 
-import numpy as np
 from numpy.typing import NDArray
 
 from meshwm.attacks import apply_attack
@@ -106,7 +104,7 @@ class Attack(NamedTuple):
         The paper's heading ("Gaussian smoothing") and row ("hsize=3, sigma=10").
     name : str or None
         A key of :data:`meshwm.attacks.ATTACKS`, one of ``"rotation"``, ``"translation"``,
-        ``"scaling"`` (:data:`TRANSFORMS`), or ``None`` (no attack).
+        ``"scaling"``, or ``None`` (no attack).
     params : dict
         The attack's options.
     required : bool
@@ -173,7 +171,7 @@ PAPER_ATTACKS: tuple[Attack, ...] = (
     Attack("cropping_16pct", "Cropping", "16 %", "gim_crop", {"fraction": 0.16}),
     Attack("rotation", "Rotation (section 5)", "random", "rotation", {}),
     Attack("translation", "Translation (section 5)", "10 bbox diagonals", "translation", {}),
-    Attack("scaling", "Scaling (section 5)", "×0.1", "scaling", {}),
+    Attack("scaling", "Scaling (section 5)", "×0.1", "scaling", {"factor": 0.1}),
 )
 
 #: The paper's row whose PSNR is that of the attacked model, not the watermarked one.
@@ -264,56 +262,12 @@ CURVE_PSNRS: dict[bool, tuple[float, ...]] = {
 }
 
 
-# --------------------------------------------------------------------------------------------
-# Section 5's transformations (rotation, translation, scaling)
-# --------------------------------------------------------------------------------------------
-# The bench's own attack list, kept here in one place on purpose: the attacks registry
-# (meshwm.attacks) is to take these over, and then TRANSFORMS, these three functions and the
-# TRANSFORMS branch of apply_bench_attack go.  Until then they must not change: the rows'
-# seeds and results depend on them.
-
-
-def _rotation(vertices: NDArray, faces: NDArray, *, seed: int = 0) -> tuple[NDArray, NDArray]:
-    """A random rotation (uniform, det +1) about the centroid of the vertices."""
-    from scipy.spatial.transform import Rotation
-
-    v = np.asarray(vertices, dtype=np.float64)
-    r = Rotation.random(random_state=np.random.default_rng(seed)).as_matrix()
-    c = v.mean(axis=0)
-    return (v - c) @ r.T + c, np.asarray(faces)
-
-
-def _translation(vertices: NDArray, faces: NDArray, *, seed: int = 0) -> tuple[NDArray, NDArray]:
-    """A translation by 10 bounding-box diagonals in a random direction."""
-    v = np.asarray(vertices, dtype=np.float64)
-    d = np.random.default_rng(seed).normal(size=3)
-    diag = float(np.linalg.norm(np.ptp(v, axis=0)))
-    return v + 10.0 * diag * d / np.linalg.norm(d), np.asarray(faces)
-
-
-def _scaling(
-    vertices: NDArray, faces: NDArray, *, seed: int = 0, factor: float = 0.1
-) -> tuple[NDArray, NDArray]:
-    """A uniform scaling by ``factor`` about the origin (``seed`` is ignored)."""
-    return np.asarray(vertices, dtype=np.float64) * factor, np.asarray(faces)
-
-
-#: The paper's section 5 transformations, which the JSON has no figure for.
-TRANSFORMS: dict[str, Callable[..., tuple[NDArray, NDArray]]] = {
-    "rotation": _rotation,
-    "translation": _translation,
-    "scaling": _scaling,
-}
-
-
 def apply_bench_attack(
     attack: Attack, vertices: NDArray, faces: NDArray
 ) -> tuple[NDArray, NDArray]:
     """Apply ``attack`` with its fixed seed (``name=None``: the mesh unchanged)."""
     if attack.name is None:
         return vertices, faces
-    if attack.name in TRANSFORMS:
-        return TRANSFORMS[attack.name](vertices, faces, seed=attack.seed, **attack.params)
     return apply_attack(attack.name, vertices, faces, seed=attack.seed, **attack.params)
 
 

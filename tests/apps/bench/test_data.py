@@ -30,8 +30,10 @@ def test_every_paper_row_maps_to_a_checked_attack():
     for attack in bench.PAPER_ATTACKS:
         if attack.name is None:
             assert attack.key == "none"
-        elif attack.name in bench.TRANSFORMS:
+        elif attack.name in ("rotation", "translation", "scaling"):
             assert attack.key not in bench.PAPER_TABLES["model1"]  # no figure in the JSON
+            spec = {p.name: p for p in ATTACK_PARAMS[attack.name]}
+            assert set(attack.params) <= set(spec)
         else:
             assert attack.name.startswith("gim_"), attack
             spec = {p.name: p for p in ATTACK_PARAMS[attack.name]}
@@ -98,24 +100,27 @@ def test_attack_seeds_are_fixed_by_the_row_id():
     assert a.seed != bench.Attack("noise_0.3", "", "", None, {}).seed
 
 
-def test_transforms_are_rigid_translations_and_scalings():
+def test_section_5_transformations_are_registry_attacks():
+    """Rotation, translation and scaling rows run the attacks registry's, with their seeds."""
     rng = np.random.default_rng(0)
     v = rng.normal(size=(20, 3))
     f = np.array([[0, 1, 2]])
-    rv, rf = bench.TRANSFORMS["rotation"](v, f, seed=3)
-    assert rf is f or np.array_equal(rf, f)
+    rows = {a.key: a for a in bench.PAPER_ATTACKS}
+    rv, rf = bench.apply_bench_attack(rows["rotation"], v, f)
+    assert np.array_equal(rf, f)
     d0 = np.linalg.norm(v[:, None] - v[None], axis=-1)
     d1 = np.linalg.norm(rv[:, None] - rv[None], axis=-1)
     assert np.allclose(d0, d1) and not np.allclose(rv, v)
     assert np.allclose(rv.mean(axis=0), v.mean(axis=0))
-    tv, _ = bench.TRANSFORMS["translation"](v, f, seed=3)
+    tv, _ = bench.apply_bench_attack(rows["translation"], v, f)
     shift = tv - v
     assert np.allclose(shift, shift[0])
     diag = np.linalg.norm(np.ptp(v, axis=0))
     assert np.linalg.norm(shift[0]) == pytest.approx(10 * diag)
-    sv, _ = bench.TRANSFORMS["scaling"](v, f)
-    assert np.allclose(sv, 0.1 * v)
-    again, _ = bench.TRANSFORMS["rotation"](v, f, seed=3)
+    sv, _ = bench.apply_bench_attack(rows["scaling"], v, f)
+    centre = v.mean(axis=0)
+    assert np.allclose(sv, 0.1 * (v - centre) + centre)
+    again, _ = bench.apply_bench_attack(rows["rotation"], v, f)
     assert np.array_equal(again, rv)
 
 
