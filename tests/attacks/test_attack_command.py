@@ -8,7 +8,6 @@ import shutil
 from pathlib import Path
 
 import pytest
-from _attack_checks import spot_gim_mesh
 from numpy.testing import assert_array_equal
 
 from meshwm.apps.cli import main
@@ -23,17 +22,6 @@ from meshwm.attacks.transforms import (
 from meshwm.mesh.io import read_mesh, write_mesh
 
 # --- the command line ------------------------------------------------------------------------
-
-
-@pytest.fixture(scope="module")
-def mesh(spot_mesh):
-    return spot_mesh
-
-
-@pytest.fixture(scope="module")
-def gim_mesh():
-    """A geometry-image mesh as meshwm writes it (N = 64, cut seams welded)."""
-    return spot_gim_mesh()
 
 
 def _one_line_error(capsys) -> str:

@@ -11,11 +11,6 @@ from meshwm.attacks import ATTACK_PARAMS, ATTACKS, AttackParam, apply_attack
 # --- the parameter registry ------------------------------------------------------------------
 
 
-@pytest.fixture(scope="module")
-def mesh(spot_mesh):
-    return spot_mesh
-
-
 @pytest.mark.parametrize("name", sorted(ATTACKS))
 def test_params_describe_the_signature(name):
     """ATTACK_PARAMS lists exactly the keyword options of each attack, with its defaults."""

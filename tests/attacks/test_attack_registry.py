@@ -20,7 +20,6 @@ from _attack_checks import (
     RANDOM,
     SAME_FACES,
     SEEDLESS,
-    spot_gim_mesh,
 )
 from numpy.testing import assert_array_equal
 
@@ -28,17 +27,6 @@ from meshwm.attacks import ATTACK_PARAMS, ATTACKS, apply_attack
 from meshwm.attacks.transforms import (
     similarity,
 )
-
-
-@pytest.fixture(scope="module")
-def mesh(spot_mesh):
-    return spot_mesh
-
-
-@pytest.fixture(scope="module")
-def gim_mesh():
-    """A geometry-image mesh as meshwm writes it (N = 64, cut seams welded)."""
-    return spot_gim_mesh()
 
 
 @pytest.fixture(scope="module")

@@ -6,7 +6,6 @@ import numpy as np
 import pytest
 from _attack_checks import (
     GIM,
-    spot_gim_mesh,
 )
 from numpy.testing import assert_allclose, assert_array_equal
 from scipy.ndimage import correlate
@@ -27,17 +26,6 @@ from meshwm.errors import GridError
 from meshwm.gim.recover import recover_grid
 
 # --- the paper's attacks on the geometry image ----------------------------------------------
-
-
-@pytest.fixture(scope="module")
-def mesh(spot_mesh):
-    return spot_mesh
-
-
-@pytest.fixture(scope="module")
-def gim_mesh():
-    """A geometry-image mesh as meshwm writes it (N = 64, cut seams welded)."""
-    return spot_gim_mesh()
 
 
 def test_fspecial_matches_matlab():

@@ -17,11 +17,6 @@ from numpy.testing import assert_allclose, assert_array_equal
 from meshwm.attacks.smoothing import laplacian, meshlab_laplacian, taubin
 
 
-@pytest.fixture(scope="module")
-def mesh(spot_mesh):
-    return spot_mesh
-
-
 def test_laplacian_step_by_hand():
     """λ = 1, one step: the interior vertex goes to the mean of its 6 neighbours; a border
     vertex to the mean of its 2 neighbours along the border (not its interior neighbours)."""

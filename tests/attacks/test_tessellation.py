@@ -7,23 +7,11 @@ import pytest
 from _attack_checks import (
     _areas,
     _mean_centroid_distance,
-    spot_gim_mesh,
 )
 from numpy.testing import assert_allclose, assert_array_equal
 
 from meshwm.attacks.tessellation import simplify, subdivide_loop, subdivide_midpoint
 from meshwm.mesh.clean import unique_edges
-
-
-@pytest.fixture(scope="module")
-def mesh(spot_mesh):
-    return spot_mesh
-
-
-@pytest.fixture(scope="module")
-def gim_mesh():
-    """A geometry-image mesh as meshwm writes it (N = 64, cut seams welded)."""
-    return spot_gim_mesh()
 
 
 @pytest.mark.parametrize("keep", [0.7, 0.5, 0.1])

@@ -32,11 +32,6 @@ from meshwm.attacks.transforms import (
 )
 
 
-@pytest.fixture(scope="module")
-def mesh(spot_mesh):
-    return spot_mesh
-
-
 @pytest.mark.parametrize("seed", [0, 1, 2])
 def test_reorder_is_the_same_oriented_mesh(mesh, seed):
     v, f = mesh

@@ -15,7 +15,7 @@ from meshwm.gim.to_mesh import geometry_image_to_mesh
 from meshwm.mesh.clean import unique_edges
 from meshwm.mesh.io import read_mesh
 
-SPOT = Path(__file__).parent.parent.parent / "assets" / "spot.ply"
+SPOT = Path(__file__).parent.parent / "assets" / "spot.ply"
 
 RANDOM = [
     "similarity",
