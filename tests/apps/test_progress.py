@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import io
 import os
+import select
 import sys
 
 import pytest
@@ -49,6 +50,20 @@ def test_progress_bar_of_a_fixed_total_counts_files():
 
 
 @pytest.mark.skipif(not hasattr(os, "openpty"), reason="needs a pseudo-terminal")
+def _read_all(fd: int) -> str:
+    """Everything written to a pseudo-terminal so far (one read may return only part of it)."""
+    chunks = []
+    while select.select([fd], [], [], 0.5)[0]:
+        try:
+            data = os.read(fd, 4096)
+        except OSError:  # EIO: the other end is closed and drained
+            break
+        if not data:
+            break
+        chunks.append(data)
+    return b"".join(chunks).decode()
+
+
 def test_draws_on_a_terminal():
     master, slave = os.openpty()
     try:
@@ -57,7 +72,7 @@ def test_draws_on_a_terminal():
             bar = ProgressBar(tty, width=8)
             bar(0, 2, "starting")
             bar(2, 2, "done")
-        seen = os.read(master, 4096).decode()
+        seen = _read_all(master)
     finally:
         os.close(master)
         os.close(slave)
