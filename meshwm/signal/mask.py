@@ -104,6 +104,7 @@ import igl
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from meshwm._validate import check_integer
 from meshwm.gim.code import grid_faces
 from meshwm.signal.fuzzy import infer_strength
 
@@ -284,9 +285,7 @@ def _check_ca(ca: ArrayLike) -> NDArray[np.float64]:
 
 
 def _check_block(block: int, side: int) -> int:
-    if isinstance(block, bool) or not isinstance(block, (int, np.integer)):
-        raise TypeError(f"block must be an int, got {type(block).__name__}")
-    block = int(block)
+    block = check_integer(block, name="block")
     if block < 1 or block > side // 2 or block & (block - 1):
         raise ValueError(
             f"block must be a power of two from 1 to M // 2 = {side // 2} so that it divides "

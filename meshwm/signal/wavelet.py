@@ -74,6 +74,8 @@ from collections.abc import Mapping
 import numpy as np
 from numpy.typing import NDArray
 
+from meshwm._validate import check_integer
+
 __all__ = [
     "MRR_KEYS",
     "MRR_LEVEL3_KEYS",
@@ -337,11 +339,7 @@ def _is_approx_key(key: str) -> bool:
 
 
 def _check_level(level: int) -> int:
-    if isinstance(level, bool) or not isinstance(level, (int, np.integer)):
-        raise TypeError(f"level must be an integer, got {type(level).__name__}")
-    if level < 1:
-        raise ValueError(f"level must be at least 1, got {level}")
-    return int(level)
+    return check_integer(level, name="level", low=1)
 
 
 def _as_real(value: NDArray, name: str) -> NDArray[np.float64]:

@@ -410,8 +410,8 @@ def test_non_real_matrix(decompose, matrix):
 @pytest.mark.parametrize(
     ("level", "error", "match"),
     [
-        (0, ValueError, "level must be at least 1, got 0"),
-        (-2, ValueError, "level must be at least 1, got -2"),
+        (0, ValueError, "level must be >= 1, got 0"),
+        (-2, ValueError, "level must be >= 1, got -2"),
         (1.5, TypeError, "level must be an integer, got float"),
         (True, TypeError, "level must be an integer, got bool"),
         ("3", TypeError, "level must be an integer, got str"),

@@ -7,7 +7,7 @@ import os
 import numpy as np
 from numpy.typing import NDArray
 
-from meshwm._validate import DEFAULT_MAX_FACES, check_mesh
+from meshwm._validate import DEFAULT_MAX_FACES, check_integer, check_mesh
 from meshwm.errors import MeshError
 from meshwm.mesh.io.common import PathLike, describe, mesh_error, quiet_trimesh, vertex_limit
 from meshwm.mesh.io.registry import reader_for
@@ -76,11 +76,7 @@ def read_mesh(
     >>> bool(np.array_equal(vertices, v)), faces.tolist()
     (True, [[0, 1, 2]])
     """
-    if isinstance(max_faces, bool) or not isinstance(max_faces, (int, np.integer)):
-        raise TypeError(f"max_faces must be an integer, got {type(max_faces).__name__}")
-    max_faces = int(max_faces)
-    if max_faces < 1:
-        raise ValueError(f"max_faces must be at least 1, got {max_faces}")
+    max_faces = check_integer(max_faces, name="max_faces", low=1)
 
     reader = reader_for(path)
     if not os.path.lexists(path):

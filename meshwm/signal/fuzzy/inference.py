@@ -12,6 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from meshwm._validate import check_integer
 from meshwm.signal.fuzzy.system import INPUT_NAMES, PERCEPTUAL_FIS, FuzzySystem
 
 __all__ = ["CLASS_TIE_TOLERANCE", "DEFAULT_CHUNK_SIZE", "infer_strength", "strength_class"]
@@ -366,10 +367,7 @@ def infer_strength(
         _check_real(value, name)
         for value, name in zip((curvature, area, bumpiness), INPUT_NAMES, strict=True)
     ]
-    if isinstance(chunk_size, bool) or not isinstance(chunk_size, (int, np.integer)):
-        raise TypeError(f"chunk_size must be an int, got {chunk_size!r}")
-    if chunk_size < 1:
-        raise ValueError(f"chunk_size must be >= 1, got {chunk_size}")
+    check_integer(chunk_size, name="chunk_size", low=1)
     if not isinstance(system, FuzzySystem):
         raise TypeError(f"system must be a FuzzySystem, got {type(system).__name__}")
     try:

@@ -17,6 +17,8 @@ from numpy.typing import NDArray
 if TYPE_CHECKING:  # pragma: no cover
     from skfuzzy.control import ControlSystem
 
+from meshwm._validate import check_integer
+
 __all__ = [
     "EMBEDDING_CLASSES",
     "INPUT_LABELS",
@@ -116,10 +118,7 @@ class LinguisticVariable:
     samples: int
 
     def __post_init__(self) -> None:
-        if isinstance(self.samples, bool) or not isinstance(self.samples, (int, np.integer)):
-            raise TypeError(f"{self.name}: samples must be an int, got {self.samples!r}")
-        if self.samples < 2:
-            raise ValueError(f"{self.name}: samples must be >= 2, got {self.samples}")
+        check_integer(self.samples, name=f"{self.name}: samples", low=2)
         object.__setattr__(self, "terms", tuple(self.terms))
         if not self.terms:
             raise ValueError(f"{self.name}: needs at least one membership function")
