@@ -86,7 +86,7 @@ def smoothed_copy(
     --------
     >>> v = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]])
     >>> f = np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]])
-    >>> smoothed_copy(v, f, steps=60).std(axis=0).max() < 1e-12
+    >>> bool(smoothed_copy(v, f, steps=60).std(axis=0).max() < 1e-12)
     True
     """
     if int(steps) != steps or steps < 0:
