@@ -115,9 +115,10 @@ def _rotation(n: int, faces: NDArray[np.int64]) -> _Rotation:
     a = faces.ravel()
     b = faces[:, [1, 2, 0]].ravel()
     c = faces[:, [2, 0, 1]].ravel()
-    keys = np.unique(np.concatenate([a * n + b, a * n + c]))
+    keys = np.sort(np.concatenate([a * n + b, a * n + c]))  # sorting beats np.unique's hash
+    keys = keys[np.concatenate([[True], keys[1:] != keys[:-1]])]
     from_key = np.searchsorted(keys, a * n + b)
-    if len(np.unique(from_key)) != len(from_key):
+    if np.bincount(from_key, minlength=len(keys)).max(initial=0) > 1:
         raise MeshError("the mesh is not edge-manifold and consistently oriented")
     succ = np.full(len(keys), -1, dtype=np.int64)
     succ[from_key] = np.searchsorted(keys, a * n + c)
@@ -257,6 +258,8 @@ def stable_cut(
     ]
     if not paths and euler_characteristic(len(vertices), faces) == 2:
         paths = [_tree_path(parent, int(order[-1]))]
+        if len(paths[0]) == 2:  # one edge does not open a sphere: on to the source's first
+            paths = [order[[-1, 0, 1]]]
     edges = np.sort(path_edges(paths), axis=1)
     edges = np.unique(edges, axis=0) if len(edges) else edges.reshape(0, 2)
     return StableCut(cut_open(vertices, faces, paths), edges, order)
