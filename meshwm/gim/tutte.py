@@ -68,7 +68,9 @@ def boundary_loop(faces: NDArray[np.int64], rank: NDArray[np.int64]) -> NDArray[
     half = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
     n = int(faces.max()) + 1
     key = half[:, 0] * n + half[:, 1]
-    border = half[~np.isin(key, half[:, 1] * n + half[:, 0])]
+    reverse = np.sort(half[:, 1] * n + half[:, 0])  # np.isin hashes, 10x slower here
+    found = reverse[np.minimum(np.searchsorted(reverse, key), len(reverse) - 1)] == key
+    border = half[~found]
     if len(border) < 3 or len(np.unique(border[:, 0])) != len(border):
         raise MeshError("the cut mesh's boundary is not one simple loop")
     succ = np.full(n, -1, dtype=np.int64)
