@@ -1,0 +1,149 @@
+"""meshwm.gim.stable (the cut) and meshwm.gim.tutte (the map): what does not move them."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from meshwm.attacks.transforms import noise
+from meshwm.errors import MeshError
+from meshwm.gim.stable import canonical_labelling, smoothed_copy, stable_cut
+from meshwm.gim.tutte import StableMap, boundary_loop, stable_parameterize, tutte_map
+
+MESHES = ["spot_mesh", "kitten_mesh", "plane_mesh"]  # closed genus 0, closed genus 1, 27 holes
+
+TETRA_V = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]])
+TETRA_F = np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]])
+
+
+def _rotation(rng: np.random.Generator) -> np.ndarray:
+    q, r = np.linalg.qr(rng.normal(size=(3, 3)))
+    q = q * np.sign(np.diag(r))
+    if np.linalg.det(q) < 0:
+        q[:, 0] = -q[:, 0]
+    return q
+
+
+def _similarity(vertices: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    scale = np.exp(rng.uniform(np.log(0.01), np.log(100.0)))
+    return scale * vertices @ _rotation(rng).T + rng.uniform(-100.0, 100.0, size=3)
+
+
+def _corner_uv(result: StableMap) -> np.ndarray:
+    """(m, 3, 2): the UV at each face corner, which names the same point whatever the order."""
+    return result.uv[result.cut.mesh.faces]
+
+
+@pytest.fixture(scope="module")
+def reference(request: pytest.FixtureRequest) -> dict[str, tuple]:
+    out = {}
+    for name in MESHES:
+        v, f = request.getfixturevalue(name)
+        out[name] = (v, f, stable_parameterize(v, f))
+    return out
+
+
+def test_smoothed_copy_moves_with_a_similarity(spot_mesh):
+    v, f = spot_mesh
+    rng = np.random.default_rng(3)
+    rot = _rotation(rng)
+    moved = smoothed_copy(2.5 * v @ rot.T + [1.0, -2.0, 3.0], f)
+    np.testing.assert_allclose(
+        moved, 2.5 * smoothed_copy(v, f) @ rot.T + [1.0, -2.0, 3.0], atol=1e-12
+    )
+
+
+@pytest.mark.parametrize(("steps", "lam"), [(-1, 0.5), (2.5, 0.5), (5, 0.0), (5, 1.5)])
+def test_smoothed_copy_rejects_bad_options(steps, lam):
+    with pytest.raises(ValueError, match="steps" if lam == 0.5 else "lam"):
+        smoothed_copy(TETRA_V, TETRA_F, steps=steps, lam=lam)
+
+
+def test_labelling_follows_a_permutation():
+    rng = np.random.default_rng(0)
+    order, parent = canonical_labelling(4, TETRA_F, source=0, first=1)
+    assert order[0] == 0 and order[1] == 1 and parent[0] == -1
+    perm = rng.permutation(4)  # new vertex i is old perm[i]
+    inv = np.argsort(perm)
+    order2, _ = canonical_labelling(4, inv[TETRA_F], source=int(inv[0]), first=int(inv[1]))
+    np.testing.assert_array_equal(perm[order2], order)
+
+
+def test_labelling_rejects_bad_input():
+    with pytest.raises(ValueError, match="first"):
+        canonical_labelling(5, np.array([[0, 1, 2], [0, 2, 3]]), source=1, first=3)
+    with pytest.raises(MeshError, match="not connected"):
+        canonical_labelling(6, np.array([[0, 1, 2], [3, 4, 5]]), source=0, first=1)
+    with pytest.raises(MeshError, match="oriented"):
+        canonical_labelling(4, np.array([[0, 1, 2], [0, 1, 3]]), source=0, first=1)
+
+
+def test_tutte_map_of_a_fan():
+    faces = np.array([[0, 1, 5], [1, 2, 5], [2, 3, 5], [3, 4, 5], [4, 0, 5]])
+    uv = tutte_map(faces, np.array([3, 0, 1, 2, 4, 5]))
+    np.testing.assert_array_equal(
+        boundary_loop(faces, np.array([3, 0, 1, 2, 4, 5])), [1, 2, 3, 4, 0]
+    )
+    np.testing.assert_allclose(uv[1], [0.0, 0.0])  # the start (smallest rank) at the origin
+    np.testing.assert_allclose(uv[5], uv[:5].mean(axis=0))
+    with pytest.raises(MeshError, match="fewer than 4"):
+        tutte_map(np.array([[0, 1, 2]]), np.arange(3))
+
+
+@pytest.mark.parametrize("name", MESHES)
+def test_map_is_a_disk_in_the_unit_square(reference, name):
+    _, f, result = reference[name]
+    assert result.uv.min() >= 0.0 and result.uv.max() <= 1.0
+    assert len(result.cut.mesh.faces) == len(f)
+    a, b, c = (result.uv[result.cut.mesh.faces[:, k]] for k in range(3))
+    area = (b - a)[:, 0] * (c - a)[:, 1] - (b - a)[:, 1] * (c - a)[:, 0]
+    assert (area > -1e-15).all()  # Tutte: no fold-over
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", MESHES)
+def test_similarities_move_nothing(reference, name):
+    v, f, result = reference[name]
+    rng = np.random.default_rng(13)
+    for _ in range(20):
+        moved = stable_parameterize(_similarity(v, rng), f)
+        np.testing.assert_array_equal(moved.cut.edges, result.cut.edges)
+        np.testing.assert_allclose(_corner_uv(moved), _corner_uv(result), rtol=0, atol=1e-9)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", MESHES)
+def test_reordering_moves_nothing(reference, name):
+    v, f, result = reference[name]
+    rng = np.random.default_rng(7)
+    corners = np.arange(3)
+    for _ in range(5):
+        perm = rng.permutation(len(v))  # new vertex i is old perm[i]
+        face_perm = rng.permutation(len(f))  # new face j is old face_perm[j]
+        shift = rng.integers(0, 3, size=len(f))  # and its corners rotated by shift[j]
+        roll = (corners[None, :] + shift[:, None]) % 3
+        new_f = np.take_along_axis(np.argsort(perm)[f[face_perm]], roll, axis=1)
+        moved = stable_parameterize(v[perm], new_f)
+        uv = np.empty_like(_corner_uv(result))
+        back = np.empty_like(roll)
+        np.put_along_axis(back, roll, corners[None, :].repeat(len(f), axis=0), axis=1)
+        uv[face_perm] = np.take_along_axis(_corner_uv(moved), back[:, :, None], axis=1)
+        np.testing.assert_allclose(uv, _corner_uv(result), rtol=0, atol=1e-9)
+        edges = np.sort(perm[moved.cut.edges], axis=1)
+        np.testing.assert_array_equal(edges[np.lexsort(edges.T[::-1])], result.cut.edges)
+
+
+@pytest.mark.parametrize("name", MESHES)
+def test_noise_keeps_the_cut_and_the_map(reference, name):
+    v, f, result = reference[name]
+    for seed in range(3):
+        noisy, _ = noise(v, f, seed=seed, amplitude=0.001)
+        moved = stable_parameterize(noisy, f)
+        np.testing.assert_array_equal(moved.cut.edges, result.cut.edges)
+        # in samples at N = 256; measured 0 (the map depends on the connectivity only)
+        assert np.abs(_corner_uv(moved) - _corner_uv(result)).max() * 256 < 0.1
+
+
+def test_stable_cut_of_a_tetrahedron_is_a_disk():
+    cut = stable_cut(TETRA_V, TETRA_F, steps=0)  # 50 steps shrink a tetrahedron to a point
+    assert len(cut.edges) == 2 and len(cut.mesh.vertices) == 5  # the middle one split
