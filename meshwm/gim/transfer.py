@@ -10,9 +10,9 @@ so that no vertex spikes where the grid samples it sparsely or not at all.
 
 from __future__ import annotations
 
+import igl
 import numpy as np
 import scipy.sparse as sp
-import scipy.sparse.linalg as spla
 from numpy.typing import NDArray
 
 from meshwm._validate import check_integer
@@ -133,9 +133,13 @@ def transfer_changes(
     .. math:: \\min_\\delta \\|S\\delta - r\\|^2 + \\mu\\|L\\delta\\|^2 + \\epsilon\\|\\delta\\|^2,
               \\qquad \\mu = \\lambda \\, m / V,
 
-    through its normal equations ``(SᵀS + μLᵀL + εI) δ = Sᵀr``, factorised once (sparse LU) and
-    reused by every pass.  The first pass fits ``r = c``; pass ``k + 1`` fits the residual
-    ``r = c - S d_k`` and adds ``d_{k+1} = d_k + δ`` (iterated Tikhonov): the bias the smoothness
+    through its normal equations ``(SᵀS + μLᵀL + εI) δ = Sᵀr``, factorised once and reused by
+    every pass (Eigen's sparse LDLᵀ with AMD ordering through ``igl.min_quad_with_fixed``; on
+    Delaunay sheets of 10k / 40k / 150k vertices it factorises in 0.07 / 0.44 / 8.0 s against
+    SciPy ``splu``'s 0.26 / 1.6 / 15 s; LSMR on the stacked system and CG on the normal
+    equations took 3.0 s and 0.4 s at 10k, ~60 s at 40k).  The first pass fits ``r = c``; pass
+    ``k + 1`` fits the residual ``r = c - S d_k`` and adds ``d_{k+1} = d_k + δ`` (iterated
+    Tikhonov): the bias the smoothness
     term puts on the data shrinks with every pass, while each correction stays smooth.  Where
     the mesh is sampled densely (``V`` < ``m``) this tends to the least-squares fit; where it is
     sampled sparsely (``V`` > ``m``, most triangles hold no grid point) to the exact fit with the
@@ -146,6 +150,24 @@ def transfer_changes(
     ``ε = 10⁻¹⁰ · mean diag(SᵀS + μLᵀL)`` only decides the null space of the other two terms
     (constants on a connected component no grid point samples, vertices on no face): those do
     not move, the minimum-norm choice.
+
+    The default ``λ = 10⁻²`` was measured on Delaunay sheets (V/N² 0.1–10, smooth fields, 3
+    passes): ``λ`` from 10⁻⁴ to 10⁻² fit alike (relative RMS within 10⁻³ of each other),
+    ``λ = 10⁻⁴`` let max |d| reach 1.5× max |c| (spikes), ``λ = 1`` cost fit (0.033 against
+    0.020 relative RMS); ``scripts/check_transfer.py`` prints such figures.
+
+    Examples
+    --------
+    >>> from meshwm.gim.code import grid_faces
+    >>> from meshwm.gim.sampling import grid_points, sampling_matrix
+    >>> uv = grid_points(9)  # a 9 × 9 vertex sheet, uv = xy
+    >>> vertices = np.column_stack([uv, np.zeros(81)])
+    >>> sampling = sampling_matrix(uv, grid_faces(9), 9)
+    >>> changes = np.zeros((9, 9, 3))
+    >>> changes[..., 2] = 1e-3 * np.sin(np.pi * uv[:, 0]).reshape(9, 9)
+    >>> d = transfer_changes(vertices, grid_faces(9), sampling, changes)
+    >>> bool(np.abs(sampling.matrix @ d - changes.reshape(81, 3)).max() < 1e-6)
+    True
     """
     v, f, c = _check_inputs(vertices, faces, sampling, changes)
     if not np.isfinite(smoothness) or smoothness <= 0:
@@ -160,9 +182,19 @@ def transfer_changes(
     mu = smoothness * len(target) / len(v)
     normal = (data.T @ data + mu * (laplacian.T @ laplacian)).tocsc()
     epsilon = _DAMPING * max(float(normal.diagonal().mean()), np.finfo(float).tiny)
-    solve = spla.splu(sp.csc_matrix(normal + epsilon * sp.identity(len(v))))
+    factor = igl.min_quad_with_fixed_data()
+    igl.min_quad_with_fixed_precompute(
+        sp.csc_matrix(normal + epsilon * sp.identity(len(v))),
+        np.zeros(0, dtype=np.int64),
+        sp.csc_matrix((0, len(v))),
+        True,
+        factor,
+    )
+    none = np.zeros((0, 3))
     displacement = np.zeros_like(v)
     for _ in range(passes):
         residual = target - data @ displacement
-        displacement += solve.solve(np.asarray(data.T @ residual))
+        # igl minimises ½ δᵀAδ + δᵀB: B = -Sᵀr gives the normal equations Aδ = Sᵀr.
+        rhs = -np.asarray(data.T @ residual)
+        displacement += igl.min_quad_with_fixed_solve(factor, rhs, none, none)
     return displacement

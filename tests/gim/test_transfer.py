@@ -128,6 +128,19 @@ def test_unsampled_parts_do_not_move_and_uncovered_changes_are_ignored(curved_sh
     assert_allclose(d[:k], alone, rtol=0, atol=1e-9)
 
 
+def test_vertex_and_face_order_change_nothing(curved_sheet):
+    vertices, faces, uv = curved_sheet
+    rng = np.random.default_rng(8)
+    changes = band_limited(64, np.random.default_rng(9))
+    reference = transfer_changes(vertices, faces, sampling_matrix(uv, faces, 64), changes)
+    perm = rng.permutation(len(vertices))  # new vertex k is old vertex perm[k]
+    new_faces = np.argsort(perm)[faces][rng.permutation(len(faces))]
+    d = transfer_changes(
+        vertices[perm], new_faces, sampling_matrix(uv[perm], new_faces, 64), changes
+    )
+    assert_allclose(d, reference[perm], rtol=0, atol=1e-12)
+
+
 def test_inputs_are_not_modified(curved_sheet):
     vertices, faces, uv = curved_sheet
     sampling = sampling_matrix(uv, faces, 64)
