@@ -27,7 +27,7 @@ import trimesh
 
 from meshwm.gim.code import grid_faces
 from meshwm.gim.sampling import grid_points, sampling_matrix
-from meshwm.gim.transfer import transfer_changes
+from meshwm.gim.transfer import ENERGIES, transfer_changes
 
 MESHES = Path("/work/shared/meshes")
 
@@ -89,14 +89,14 @@ def field(n: int, kind: str, rng: np.random.Generator) -> np.ndarray:
     return 1e-3 * out / np.abs(out).max()
 
 
-def report(name, v, f, uv, n, kind, rng, smoothness, passes) -> None:
+def report(name, v, f, uv, n, kind, rng, smoothness, passes, energy) -> None:
     start = time.perf_counter()
     s = sampling_matrix(uv, f, n)
     t_sample = time.perf_counter() - start
     truth = vertex_field(v, rng) if kind == "vertex" else None
     change = field(n, kind, rng) if truth is None else (s.matrix @ truth).reshape(n, n, 3)
     start = time.perf_counter()
-    d = transfer_changes(v, f, s, change, smoothness=smoothness, passes=passes)
+    d = transfer_changes(v, f, s, change, smoothness=smoothness, passes=passes, energy=energy)
     t_transfer = time.perf_counter() - start
     got = (s.matrix @ d).reshape(n, n, 3)[s.covered]
     want = change[s.covered]
@@ -108,7 +108,7 @@ def report(name, v, f, uv, n, kind, rng, smoothness, passes) -> None:
         extra = f" |d-truth|/|truth| (sampled vertices) {miss:.4f}"
     print(
         f"{name:12s} V={len(v):6d} N={n:3d} V/N²={len(v) / n / n:5.2f} "
-        f"covered={s.covered.mean():.3f} {kind:3s} λ={smoothness:g} passes={passes} "
+        f"covered={s.covered.mean():.3f} {kind:3s} {energy} λ={smoothness:g} passes={passes} "
         f"relRMS={rel:.4f} max|d|/max|c|={np.abs(d).max() / np.abs(change).max():.3f} "
         f"sample {t_sample:.2f}s transfer {t_transfer:.2f}s{extra}",
         flush=True,
@@ -121,6 +121,7 @@ def main() -> None:
     parser.add_argument("--meshes", nargs="+", default=["sheet", "plane_holes", "camelhead"])
     parser.add_argument("--smoothness", type=float, nargs="+", default=[1e-2])
     parser.add_argument("--passes", type=int, default=3)
+    parser.add_argument("--energy", default="bilaplacian", choices=sorted(ENERGIES))
     args = parser.parse_args()
     rng = np.random.default_rng(2026)
     for name in args.meshes:
@@ -128,7 +129,7 @@ def main() -> None:
         for n in args.sizes:
             for kind in ("low", "mid", "vertex"):
                 for smoothness in args.smoothness:
-                    report(name, v, f, uv, n, kind, rng, smoothness, args.passes)
+                    report(name, v, f, uv, n, kind, rng, smoothness, args.passes, args.energy)
 
 
 if __name__ == "__main__":

@@ -49,19 +49,21 @@ def relative_rms(sampling, displacement: np.ndarray, changes: np.ndarray) -> flo
     return float(np.sqrt(((got - want) ** 2).mean() / (want**2).mean()))
 
 
+@pytest.mark.parametrize("energy", ["bilaplacian", "dirichlet"])
 @pytest.mark.parametrize("n", [64, 128])
-def test_the_resampled_change_matches_a_smooth_target(curved_sheet, n):
+def test_the_resampled_change_matches_a_smooth_target(curved_sheet, n, energy):
     vertices, faces, uv = curved_sheet
     sampling = sampling_matrix(uv, faces, n)
     changes = band_limited(n, np.random.default_rng(n))
-    d = transfer_changes(vertices, faces, sampling, changes)
+    d = transfer_changes(vertices, faces, sampling, changes, energy=energy)
     assert d.shape == vertices.shape and d.dtype == np.float64
     assert relative_rms(sampling, d, changes) < RMS_BOUND[n]
     # Smooth, no spikes: no vertex moves much beyond the largest wanted change.
     assert np.abs(d).max() <= 1.5 * np.abs(changes).max()
 
 
-def test_smoothness_removes_the_spikes_of_plain_least_squares(curved_sheet):
+@pytest.mark.parametrize("energy", ["bilaplacian", "dirichlet"])
+def test_smoothness_removes_the_spikes_of_plain_least_squares(curved_sheet, energy):
     """With more vertices than grid points (V/N² = 4) minimum-norm least squares moves only the
     vertices of sampled triangles (roughness 0.88, max |d| 1.3 × max |change|); the smoothness
     term spreads the change over all of them (0.04, 1.02 ×)."""
@@ -73,7 +75,7 @@ def test_smoothness_removes_the_spikes_of_plain_least_squares(curved_sheet):
     plain = np.column_stack(
         [lsqr(data, target[:, k], atol=1e-12, btol=1e-12, iter_lim=20_000)[0] for k in range(3)]
     )
-    smooth = transfer_changes(vertices, faces, sampling, changes)
+    smooth = transfer_changes(vertices, faces, sampling, changes, energy=energy)
     laplacian = uniform_laplacian(faces, len(vertices))
 
     def roughness(d: np.ndarray) -> float:
@@ -171,6 +173,11 @@ def test_the_uniform_laplacian_counts_a_shared_edge_once():
         (lambda c: c, {"smoothness": 0.0}, "smoothness must be"),
         (lambda c: c, {"smoothness": np.nan}, "smoothness must be"),
         (lambda c: c, {"passes": 0}, "passes must be >= 1"),
+        (
+            lambda c: c,
+            {"energy": "laplace"},
+            r"energy must be one of \['bilaplacian', 'dirichlet'\]",
+        ),
     ],
 )
 def test_bad_input_raises_a_value_error_naming_the_parameter(curved_sheet, change, options, match):
