@@ -1,0 +1,192 @@
+"""The sparse barycentric sampling matrix of a parameterised mesh on the N×N grid.
+
+A mesh with a map ``uv`` of its own vertices into the unit square is sampled at the grid points
+``(u, v) = (j, i) / (N - 1)``: each grid point is located in the UV triangle that contains it and
+takes the barycentric combination of that triangle's three vertices.  The weights form one sparse
+``(N², V)`` matrix ``S``, so ``S @ vertices`` is the geometry image of the mesh under the map and
+``S @ d`` is what a vertex displacement ``d`` does to it (:mod:`meshwm.transfer` inverts that).
+Unlike :mod:`meshwm.gim.sample` nothing is snapped or clamped: a grid point outside every UV
+triangle is left out (an empty row, ``covered`` False).
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import igl
+import numpy as np
+import scipy.sparse as sp
+from numpy.typing import NDArray
+
+from meshwm._validate import check_integer
+
+__all__ = ["Sampling", "grid_points", "sampling_matrix"]
+
+
+class Sampling(NamedTuple):
+    """The sampling of a mesh's vertices on the N×N grid.
+
+    Attributes
+    ----------
+    matrix : (N², V) scipy.sparse.csr_matrix of float64
+        Row ``i * N + j`` holds the barycentric weights (at most 3, summing to 1) of the grid
+        point ``(u, v) = (j, i) / (N - 1)`` in the UV triangle that contains it; empty where the
+        point is not covered.
+    covered : (N, N) bool ndarray
+        ``covered[i, j]``: the grid point lies in (or within ``tolerance`` of) a UV triangle.
+    """
+
+    matrix: sp.csr_matrix
+    covered: NDArray[np.bool_]
+
+
+def grid_points(n: int) -> NDArray[np.float64]:
+    """The ``(N², 2)`` grid points in row-major order: row ``i * N + j`` is ``(j, i) / (N - 1)``.
+
+    Examples
+    --------
+    >>> grid_points(2).tolist()
+    [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [1.0, 1.0]]
+    """
+    g = np.arange(n, dtype=np.float64) / (n - 1)
+    uu, vv = np.meshgrid(g, g)  # uu[i, j] = j / (N - 1), vv[i, j] = i / (N - 1)
+    return np.stack([uu.ravel(), vv.ravel()], axis=1)
+
+
+def _check_inputs(uv: object, faces: object, n: object) -> tuple[NDArray, NDArray, int]:
+    """Validate and normalise the inputs of :func:`sampling_matrix`."""
+    size = check_integer(n, name="n", low=2)
+    u = np.asarray(uv)
+    if u.ndim != 2 or u.shape[1] != 2 or len(u) == 0:
+        raise ValueError(f"uv must have shape (V, 2) with V >= 1, got {u.shape}")
+    if not np.issubdtype(u.dtype, np.number) or np.iscomplexobj(u):
+        raise ValueError(f"uv must hold real numbers, got dtype {u.dtype}")
+    u = u.astype(np.float64)
+    bad = ~np.isfinite(u).all(axis=1)
+    if bad.any():
+        raise ValueError(
+            f"uv has NaN or infinite entries at {int(bad.sum())} vertices "
+            f"(first: {int(np.argmax(bad))})"
+        )
+    f = np.asarray(faces)
+    if f.ndim != 2 or f.shape[1] != 3 or len(f) == 0:
+        raise ValueError(f"faces must be triangles with shape (F, 3), F >= 1, got {f.shape}")
+    if not np.issubdtype(f.dtype, np.integer):
+        raise ValueError(f"faces must hold integer indices, got dtype {f.dtype}")
+    f = f.astype(np.int64)
+    lo, hi = int(f.min()), int(f.max())
+    if lo < 0 or hi >= len(u):
+        raise ValueError(f"faces must index uv's {len(u)} rows (0..{len(u) - 1}), got {lo}..{hi}")
+    return u, f, size
+
+
+def _barycentric(tri: NDArray[np.float64], points: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Barycentric weights ``(P, 3)`` of ``points (P, 2)`` in triangles ``tri (P, 3, 2)``.
+
+    Weights are clipped to [0, 1] and renormalised (the points are on or within rounding of
+    their triangle); a degenerate triangle interpolates along its longest edge.
+    """
+    e1 = tri[:, 1] - tri[:, 0]
+    e2 = tri[:, 2] - tri[:, 0]
+    p = points - tri[:, 0]
+    det = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
+    scale = np.maximum((e1 * e1).sum(1), (e2 * e2).sum(1))
+    ok = np.abs(det) > 1e-14 * scale
+    safe = np.where(ok, det, 1.0)
+    b1 = (p[:, 0] * e2[:, 1] - p[:, 1] * e2[:, 0]) / safe
+    b2 = (e1[:, 0] * p[:, 1] - e1[:, 1] * p[:, 0]) / safe
+    bary = np.clip(np.stack([1.0 - b1 - b2, b1, b2], axis=1), 0.0, None)
+    bary /= np.maximum(bary.sum(axis=1, keepdims=True), np.finfo(float).tiny)
+    if not ok.all():
+        bary[~ok] = _on_longest_edge(tri[~ok], points[~ok])
+    return bary
+
+
+def _on_longest_edge(tri: NDArray[np.float64], points: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Weights ``(P, 3)`` of ``points`` on the longest edge of degenerate triangles ``tri``."""
+    start = np.array([0, 1, 2])
+    end = np.array([1, 2, 0])
+    lengths = ((tri[:, end] - tri[:, start]) ** 2).sum(-1)  # (P, 3): edges 01, 12, 20
+    edge = np.argmax(lengths, axis=1)
+    rows = np.arange(len(tri))
+    a, b = start[edge], end[edge]
+    ab = tri[rows, b] - tri[rows, a]
+    length = np.maximum(lengths[rows, edge], np.finfo(float).tiny)
+    t = np.clip(((points - tri[rows, a]) * ab).sum(1) / length, 0.0, 1.0)
+    bary = np.zeros((len(tri), 3))
+    bary[rows, a] = 1.0 - t
+    bary[rows, b] += t  # a triangle collapsed to a point puts all the weight on a
+    return bary
+
+
+def sampling_matrix(
+    uv: NDArray[np.float64],
+    faces: NDArray[np.int64],
+    n: int,
+    *,
+    tolerance: float = 1e-10,
+) -> Sampling:
+    """The barycentric sampling of a parameterised mesh at the N×N grid points.
+
+    Parameters
+    ----------
+    uv : (V, 2) array_like of float
+        The map of each vertex, normally into the unit square ``[0, 1]²``.
+    faces : (F, 3) array_like of int
+        Triangles as indices into ``uv`` (and into the mesh's vertices), as given.
+    n : int
+        Grid size N >= 2.
+    tolerance : float, optional
+        A grid point within this UV distance of a triangle counts as covered (it takes the
+        weights of its closest point in that triangle); absorbs rounding on the domain's edge.
+
+    Returns
+    -------
+    Sampling
+        ``matrix`` (N², V) CSR and the ``covered`` (N, N) mask.
+
+    Raises
+    ------
+    ValueError
+        ``uv`` not (V, 2) or not finite, ``faces`` not (F, 3) integers indexing ``uv``,
+        ``n`` < 2 (a non-integer ``n`` raises TypeError).
+
+    Notes
+    -----
+    The grid points are located with an AABB tree over the UV triangles (``igl.AABB`` on a copy
+    of ``uv`` padded with a zero z; igl crashes on two columns): one squared-distance query per
+    point returns the closest triangle and point, ``O((N² + F) log F)``.  A point at distance 0
+    lies in that triangle; where triangles overlap (a map that is not injective) one of them is
+    used.  For a point ``p`` in triangle ``(a, b, c)`` the row holds
+    ``(1 - β - γ, β, γ)`` at columns ``(a, b, c)`` with ``p = a + β (b - a) + γ (c - a)``, so
+    ``(S @ x)`` is the piecewise-linear interpolant of any per-vertex ``x`` at the grid points.
+
+    Examples
+    --------
+    >>> uv = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [1.0, 1.0]])
+    >>> s = sampling_matrix(uv, np.array([[0, 1, 3], [0, 3, 2]]), 3)
+    >>> s.matrix.shape, int(s.covered.sum())
+    ((9, 4), 9)
+    >>> (s.matrix @ uv)[5].tolist()  # the grid point (i, j) = (1, 2), (u, v) = (1, 0.5)
+    [1.0, 0.5]
+    """
+    u, f, size = _check_inputs(uv, faces, n)
+    if not np.isfinite(tolerance) or tolerance < 0:
+        raise ValueError(f"tolerance must be a finite number >= 0, got {tolerance}")
+    points = grid_points(size)
+    uv3 = np.column_stack([u, np.zeros(len(u))])
+    p3 = np.column_stack([points, np.zeros(len(points))])
+    tree = igl.AABB()
+    tree.init(uv3, f)
+    sq_dist, face_id, closest = tree.squared_distance(uv3, f, p3)
+    covered = np.asarray(sq_dist) <= tolerance * tolerance
+    rows = np.flatnonzero(covered)
+    face_id = np.asarray(face_id, dtype=np.int64)[rows]
+    corners = f[face_id]  # (P, 3)
+    bary = _barycentric(u[corners], np.asarray(closest)[rows, :2])
+    keep = bary > 0
+    matrix = sp.csr_matrix(
+        (bary[keep], (np.repeat(rows, 3).reshape(-1, 3)[keep], corners[keep])),
+        shape=(size * size, len(u)),
+    )
+    return Sampling(matrix=matrix, covered=covered.reshape(size, size))

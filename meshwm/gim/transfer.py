@@ -1,0 +1,241 @@
+"""Carry a change made in a geometry image onto the mesh's own vertices.
+
+A mark is made in the geometry image ``S @ vertices`` of a mesh under its map (the sampling of
+:mod:`meshwm.gim.sampling`); the mesh keeps its vertices and faces if the change ``D`` (marked
+minus unmarked image) is carried back as a vertex displacement ``d`` with ``S @ d ≈ D`` on the
+covered grid points.  :func:`transfer_changes` finds that ``d`` by regularised least squares: the
+data term through the sparse barycentric matrix and a smoothness term on the mesh's own edges,
+so that no vertex spikes where the grid samples it sparsely or not at all.
+"""
+
+from __future__ import annotations
+
+import igl
+import numpy as np
+import scipy.sparse as sp
+from numpy.typing import NDArray
+
+from meshwm._validate import check_integer
+from meshwm.gim.sampling import Sampling
+
+__all__ = [
+    "DEFAULT_PASSES",
+    "DEFAULT_SMOOTHNESS",
+    "ENERGIES",
+    "transfer_changes",
+    "uniform_laplacian",
+]
+
+#: Default weight of the smoothness term relative to the data term (per row, see Notes).
+DEFAULT_SMOOTHNESS = 1e-2
+#: Default number of refinement passes (iterated Tikhonov, see Notes).
+DEFAULT_PASSES = 3
+#: Relative size of the damping that pins vertices nothing else determines.
+_DAMPING = 1e-10
+
+
+def uniform_laplacian(faces: NDArray[np.int64], n_vertices: int) -> sp.csr_matrix:
+    """The row-normalised uniform graph Laplacian ``L = I - D⁻¹ A`` of the mesh's edges.
+
+    ``(L @ x)[i]`` is ``x[i]`` minus the mean of ``x`` over the neighbours of vertex ``i``; a
+    vertex on no edge has an empty row.
+
+    Parameters
+    ----------
+    faces : (F, 3) int64 ndarray
+    n_vertices : int
+
+    Returns
+    -------
+    (V, V) scipy.sparse.csr_matrix of float64
+
+    Examples
+    --------
+    >>> uniform_laplacian(np.array([[0, 1, 2]]), 4).toarray()[0].tolist()
+    [1.0, -0.5, -0.5, 0.0]
+    """
+    i = faces[:, [0, 1, 2, 1, 2, 0]].ravel()
+    j = faces[:, [1, 2, 0, 0, 1, 2]].ravel()
+    adjacency = sp.csr_matrix((np.ones(len(i)), (i, j)), shape=(n_vertices, n_vertices))
+    adjacency.data[:] = 1.0  # an edge shared by two faces counts once
+    degree = np.asarray(adjacency.sum(axis=1)).ravel()
+    has_edges = degree > 0
+    inverse = np.where(has_edges, 1.0 / np.where(has_edges, degree, 1.0), 0.0)
+    identity = sp.diags(has_edges.astype(np.float64))
+    return sp.csr_matrix(identity - sp.diags(inverse) @ adjacency)
+
+
+def _bilaplacian(laplacian: sp.csr_matrix) -> sp.csr_matrix:
+    """``LᵀL``: the energy ``‖Ld‖²`` (two-ring sparsity)."""
+    return sp.csr_matrix(laplacian.T @ laplacian)
+
+
+def _dirichlet(laplacian: sp.csr_matrix) -> sp.csr_matrix:
+    """``(D - A) / mean degree``: ``Σ_edges (dᵢ - dⱼ)²`` scaled per vertex (one-ring sparsity)."""
+    adjacency = sp.csr_matrix(laplacian, copy=True)
+    adjacency.setdiag(0.0)
+    adjacency.eliminate_zeros()
+    adjacency.data[:] = 1.0
+    degree = np.asarray(adjacency.sum(axis=1)).ravel()
+    mean = max(float(degree[degree > 0].mean()) if (degree > 0).any() else 1.0, 1.0)
+    return sp.csr_matrix((sp.diags(degree) - adjacency) / mean)
+
+
+#: The smoothness energies by name: the quadratic form ``R`` of the term ``μ dᵀRd``, built from
+#: the uniform Laplacian (see :func:`transfer_changes`, Notes).
+ENERGIES = {"bilaplacian": _bilaplacian, "dirichlet": _dirichlet}
+
+
+def _check_inputs(
+    vertices: object, faces: object, sampling: Sampling, changes: object
+) -> tuple[NDArray[np.float64], NDArray[np.int64], NDArray[np.float64]]:
+    """Validate the arrays of :func:`transfer_changes`; return vertices, faces, flat changes."""
+    v = np.asarray(vertices, dtype=np.float64)
+    if v.ndim != 2 or v.shape[1] != 3:
+        raise ValueError(f"vertices must have shape (V, 3), got {v.shape}")
+    f = np.asarray(faces)
+    if f.ndim != 2 or f.shape[1] != 3 or not np.issubdtype(f.dtype, np.integer):
+        raise ValueError(f"faces must be integer triangles (F, 3), got {f.shape} {f.dtype}")
+    if f.size and (f.min() < 0 or f.max() >= len(v)):
+        raise ValueError(f"faces must index the {len(v)} vertices, got {f.min()}..{f.max()}")
+    n = sampling.covered.shape[0]
+    if sampling.matrix.shape != (n * n, len(v)):
+        raise ValueError(
+            f"sampling must be of the {len(v)} vertices on an N×N grid, "
+            f"got a matrix of shape {sampling.matrix.shape} and covered {sampling.covered.shape}"
+        )
+    c = np.asarray(changes, dtype=np.float64)
+    if c.shape != (n, n, 3):
+        raise ValueError(f"changes must have shape ({n}, {n}, 3) like the sampling, got {c.shape}")
+    if not np.isfinite(c[sampling.covered]).all():
+        raise ValueError("changes must be finite on the covered grid points")
+    return v, f.astype(np.int64), c.reshape(n * n, 3)
+
+
+def transfer_changes(
+    vertices: NDArray[np.float64],
+    faces: NDArray[np.int64],
+    sampling: Sampling,
+    changes: NDArray[np.float64],
+    *,
+    smoothness: float = DEFAULT_SMOOTHNESS,
+    passes: int = DEFAULT_PASSES,
+    energy: str = "bilaplacian",
+) -> NDArray[np.float64]:
+    """The smooth vertex displacement whose re-sampled image reproduces a change of the image.
+
+    Parameters
+    ----------
+    vertices : (V, 3) float64 ndarray
+        The mesh's vertex positions (only their count is used: the sampling is linear).
+    faces : (F, 3) int64 ndarray
+        Its triangles; their edges define the smoothness term.
+    sampling : Sampling
+        The mesh's sampling on the N×N grid (:func:`meshwm.gim.sampling.sampling_matrix`).
+    changes : (N, N, 3) float64 ndarray
+        The wanted change of the geometry image, e.g. marked minus unmarked; only its covered
+        grid points are used.
+    smoothness : float, optional
+        Weight ``λ`` > 0 of the smoothness term relative to the data term, per row (Notes).
+    passes : int, optional
+        Refinement passes >= 1; each fits what the previous ones left of the data.
+    energy : {"bilaplacian", "dirichlet"}, optional
+        The smoothness term (:data:`ENERGIES`): ``‖Ld‖²`` (default, smoothest) or the Dirichlet
+        energy (one-ring sparsity, ~6× faster to factorise, a little rougher; Notes).
+
+    Returns
+    -------
+    (V, 3) float64 ndarray
+        The displacement ``d``: ``sampling.matrix @ (vertices + d)`` ≈
+        ``sampling.matrix @ vertices + changes`` on the covered grid points.
+
+    Raises
+    ------
+    ValueError
+        Shapes that do not match, non-finite changes, ``smoothness`` <= 0, ``passes`` < 1 or an
+        unknown ``energy`` (the message lists the names).
+
+    Notes
+    -----
+    With ``S`` the covered rows of the sampling matrix (``m`` rows, at most three barycentric
+    weights each summing to 1), ``c`` the wanted change on those rows and ``L = I - D⁻¹A`` the
+    row-normalised uniform Laplacian of the mesh's edges, each pass solves, coordinate by
+    coordinate,
+
+    .. math:: \\min_\\delta \\|S\\delta - r\\|^2 + \\mu\\|L\\delta\\|^2 + \\epsilon\\|\\delta\\|^2,
+              \\qquad \\mu = \\lambda \\, m / V,
+
+    through its normal equations ``(SᵀS + μLᵀL + εI) δ = Sᵀr``, factorised once and reused by
+    every pass (Eigen's sparse LDLᵀ with AMD ordering through ``igl.min_quad_with_fixed``; on
+    Delaunay sheets of 10k / 40k / 150k vertices it factorises in 0.07 / 0.44 / 8.0 s against
+    SciPy ``splu``'s 0.26 / 1.6 / 15 s; LSMR on the stacked system and CG on the normal
+    equations took 3.0 s and 0.4 s at 10k, ~60 s at 40k).  The first pass fits ``r = c``; pass
+    ``k + 1`` fits the residual ``r = c - S d_k`` and adds ``d_{k+1} = d_k + δ`` (iterated
+    Tikhonov): the bias the smoothness
+    term puts on the data shrinks with every pass, while each correction stays smooth.  Where
+    the mesh is sampled densely (``V`` < ``m``) this tends to the least-squares fit; where it is
+    sampled sparsely (``V`` > ``m``, most triangles hold no grid point) to the exact fit with the
+    smallest ``‖Ld‖``: plain least squares there moves only the vertices of sampled triangles
+    and leaves spikes.  ``‖Lδ‖²`` (bi-Laplacian energy) rather than the Dirichlet energy because
+    harmonic interpolation of isolated constraints is itself spiky.  Scaling ``μ`` by ``m / V``
+    makes ``λ`` the weight of one smoothness row against one data row.  The tiny damping
+    ``ε = 10⁻¹⁰ · mean diag(SᵀS + μLᵀL)`` only decides the null space of the other two terms
+    (constants on a connected component no grid point samples, vertices on no face): those do
+    not move, the minimum-norm choice.
+
+    ``energy="dirichlet"`` replaces ``LᵀL`` by ``(D - A) / mean degree`` (``Σ (dᵢ - dⱼ)²`` over
+    the edges), whose factor has the fill of one harmonic solve: on a 67k-vertex disk of igea at
+    N = 256 it factorised in 0.37 s against 2.2 s, with the same fit (relative RMS 0.034) and
+    roughness ``‖Ld‖ / ‖d‖`` 0.21 against 0.21; at N = 96 (V/N² = 7.3) 0.047 against 0.032.
+    Its exact-fit limit obeys the maximum principle (no overshoot) but has a kink at every
+    sampled vertex.
+
+    The default ``λ = 10⁻²`` was measured on Delaunay sheets (V/N² 0.1–10, smooth fields, 3
+    passes): ``λ`` from 10⁻⁴ to 10⁻² fit alike (relative RMS within 10⁻³ of each other),
+    ``λ = 10⁻⁴`` let max |d| reach 1.5× max |c| (spikes), ``λ = 1`` cost fit (0.033 against
+    0.020 relative RMS); ``scripts/check_transfer.py`` prints such figures.
+
+    Examples
+    --------
+    >>> from meshwm.gim.code import grid_faces
+    >>> from meshwm.gim.sampling import grid_points, sampling_matrix
+    >>> uv = grid_points(9)  # a 9 × 9 vertex sheet, uv = xy
+    >>> vertices = np.column_stack([uv, np.zeros(81)])
+    >>> sampling = sampling_matrix(uv, grid_faces(9), 9)
+    >>> changes = np.zeros((9, 9, 3))
+    >>> changes[..., 2] = 1e-3 * np.sin(np.pi * uv[:, 0]).reshape(9, 9)
+    >>> d = transfer_changes(vertices, grid_faces(9), sampling, changes)
+    >>> bool(np.abs(sampling.matrix @ d - changes.reshape(81, 3)).max() < 1e-6)
+    True
+    """
+    v, f, c = _check_inputs(vertices, faces, sampling, changes)
+    if not np.isfinite(smoothness) or smoothness <= 0:
+        raise ValueError(f"smoothness must be a finite number > 0, got {smoothness}")
+    passes = check_integer(passes, name="passes", low=1)
+    if energy not in ENERGIES:
+        raise ValueError(f"energy must be one of {sorted(ENERGIES)}, got {energy!r}")
+    rows = sampling.covered.ravel()
+    data = sp.csr_matrix(sampling.matrix[rows])
+    target = c[rows]
+    if len(target) == 0:
+        return np.zeros_like(v)
+    laplacian = uniform_laplacian(f, len(v))
+    mu = smoothness * len(target) / len(v)
+    normal = (data.T @ data + mu * ENERGIES[energy](laplacian)).tocsc()
+    epsilon = _DAMPING * max(float(normal.diagonal().mean()), np.finfo(float).tiny)
+    factor = igl.min_quad_with_fixed_data()
+    igl.min_quad_with_fixed_precompute(
+        sp.csc_matrix(normal + epsilon * sp.identity(len(v))),
+        np.zeros(0, dtype=np.int64),
+        sp.csc_matrix((0, len(v))),
+        True,
+        factor,
+    )
+    none = np.zeros((0, 3))
+    displacement = np.zeros_like(v)
+    for _ in range(passes):
+        residual = target - data @ displacement
+        # igl minimises ½ δᵀAδ + δᵀB: B = -Sᵀr gives the normal equations Aδ = Sᵀr.
+        rhs = -np.asarray(data.T @ residual)
+        displacement += igl.min_quad_with_fixed_solve(factor, rhs, none, none)
+    return displacement

@@ -1,0 +1,104 @@
+"""Tests for :mod:`meshwm.gim.sampling`: the sparse barycentric sampling on the N×N grid."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+from numpy.testing import assert_allclose, assert_array_equal
+
+from meshwm.gim.code import grid_faces
+from meshwm.gim.sampling import Sampling, grid_points, sampling_matrix
+
+N = 33
+
+
+@pytest.fixture(scope="module")
+def jittered_square() -> tuple[np.ndarray, np.ndarray]:
+    """The unit square as a 12 × 12 vertex grid in z = 0, interior vertices jittered."""
+    rng = np.random.default_rng(13)
+    k = 12
+    i, j = np.meshgrid(np.arange(k), np.arange(k), indexing="ij")
+    xy = np.stack([j.ravel(), i.ravel()], axis=1) / (k - 1)
+    inner = ((i > 0) & (i < k - 1) & (j > 0) & (j < k - 1)).ravel()
+    xy[inner] += rng.uniform(-0.3, 0.3, (int(inner.sum()), 2)) / (k - 1)
+    return np.column_stack([xy, np.zeros(k * k)]), grid_faces(k)
+
+
+def test_sampling_a_flat_square_with_uv_xy_gives_the_grid_points(jittered_square):
+    v, f = jittered_square
+    s = sampling_matrix(v[:, :2], f, N)
+    assert isinstance(s, Sampling) and sp.issparse(s.matrix)
+    assert s.matrix.shape == (N * N, len(v)) and s.covered.shape == (N, N)
+    assert s.covered.all()
+    expected = np.column_stack([grid_points(N), np.zeros(N * N)])
+    assert_allclose(s.matrix @ v, expected, rtol=0, atol=1e-12)
+    assert_allclose(np.asarray(s.matrix.sum(axis=1)).ravel(), 1.0, rtol=0, atol=1e-12)
+    assert s.matrix.getnnz(axis=1).max() <= 3
+
+
+def test_the_rows_are_row_major_in_i_then_j():
+    g = grid_points(4).reshape(4, 4, 2)
+    assert_allclose(g[1, 3], [1.0, 1 / 3], rtol=0, atol=1e-15)  # (u, v) = (j, i) / (N - 1)
+
+
+def test_vertex_and_face_order_change_nothing(jittered_square):
+    v, f = jittered_square
+    rng = np.random.default_rng(7)
+    reference = sampling_matrix(v[:, :2], f, N).matrix.toarray()
+    perm = rng.permutation(len(v))  # new vertex k is old vertex perm[k]
+    inverse = np.argsort(perm)
+    faces = inverse[f][rng.permutation(len(f))]
+    faces = np.roll(faces, 1, axis=1)  # rotate each triangle's corners too
+    s = sampling_matrix(v[perm, :2], faces, N)
+    assert_allclose(s.matrix.toarray()[:, inverse], reference, rtol=0, atol=1e-12)
+    assert s.covered.all()
+
+
+def test_points_outside_every_triangle_are_uncovered_with_empty_rows():
+    uv = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]])  # the lower-left half only
+    s = sampling_matrix(uv, np.array([[0, 1, 2]]), 9)
+    g = grid_points(9).reshape(9, 9, 2)
+    assert_array_equal(s.covered, g.sum(axis=-1) <= 1.0 + 1e-12)
+    rows = s.matrix.getnnz(axis=1).reshape(9, 9)
+    assert (rows[~s.covered] == 0).all() and (rows[s.covered] > 0).all()
+    assert_allclose(s.matrix[s.covered.ravel()] @ uv, g[s.covered], rtol=0, atol=1e-12)
+
+
+def test_a_degenerate_triangle_interpolates_along_its_longest_edge():
+    uv = np.array([[0.0, 0.0], [1.0, 0.0], [0.25, 0.0]])  # three collinear corners
+    s = sampling_matrix(uv, np.array([[0, 1, 2]]), 5)
+    assert s.covered[0].all()
+    assert not s.covered[1:].any()
+    assert_allclose(s.matrix[:5] @ uv, grid_points(5)[:5], rtol=0, atol=1e-12)
+    assert_allclose(np.asarray(s.matrix[:5].sum(axis=1)).ravel(), 1.0, rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize(
+    ("uv", "faces", "n", "match"),
+    [
+        (np.zeros((4, 3)), [[0, 1, 2]], 4, "uv must have shape"),
+        (np.zeros(4), [[0, 1, 2]], 4, "uv must have shape"),
+        ([[0, 0], [1, 0], [np.nan, 1]], [[0, 1, 2]], 4, "uv has NaN"),
+        ([[0, 0], [1, 0], [0, np.inf]], [[0, 1, 2]], 4, "uv has NaN"),
+        ([[0, 0], [1, 0], [0, 1]], [[0, 1, 3]], 4, "faces must index"),
+        ([[0, 0], [1, 0], [0, 1]], [[0, -1, 2]], 4, "faces must index"),
+        ([[0, 0], [1, 0], [0, 1]], [[0, 1]], 4, "faces must be triangles"),
+        ([[0, 0], [1, 0], [0, 1]], np.zeros((0, 3), np.int64), 4, "faces must be triangles"),
+        ([[0, 0], [1, 0], [0, 1]], [[0.0, 1.0, 2.0]], 4, "faces must hold integer"),
+        ([[0, 0], [1, 0], [0, 1]], [[0, 1, 2]], 1, "n must be >= 2"),
+    ],
+)
+def test_bad_input_raises_a_value_error_naming_the_parameter(uv, faces, n, match):
+    with pytest.raises(ValueError, match=match):
+        sampling_matrix(np.asarray(uv, dtype=float), np.asarray(faces), n)
+
+
+def test_a_non_integer_size_raises_a_type_error():
+    with pytest.raises(TypeError, match="n must be an integer"):
+        sampling_matrix(np.eye(3)[:, :2], np.array([[0, 1, 2]]), 4.0)  # type: ignore[arg-type]
+
+
+def test_a_negative_tolerance_raises():
+    with pytest.raises(ValueError, match="tolerance"):
+        sampling_matrix(np.eye(3)[:, :2], np.array([[0, 1, 2]]), 4, tolerance=-1.0)
