@@ -54,11 +54,10 @@ def read_received(
     GridError
         No reader found a geometry image (the first reader's message).
     """
-    first: GridError | None = None
+    errors: list[GridError] = []
     for name in READERS:
         try:
             return get_reader(name)(vertices, faces, max_faces=max_faces)
         except GridError as exc:
-            first = first or exc
-    assert first is not None  # READERS is not empty
-    raise first
+            errors.append(exc)
+    raise errors[0]

@@ -11,7 +11,6 @@ from numpy.typing import NDArray
 
 from meshwm._validate import DEFAULT_MAX_FACES
 from meshwm.detect import DEFAULT_FPR, Verdict, decide, detection_p_value
-from meshwm.message.mark import default_mark
 from meshwm.message.payload import PAYLOAD_BITS, decode_id, encode_id
 from meshwm.message.scramble import arnold_scramble, arnold_unscramble
 from meshwm.metrics import bit_error_rate, correlation2
@@ -340,7 +339,7 @@ def verify(
             vertices, faces, key=key, expected=ident, params=params, max_faces=max_faces
         )
         return decide(got.report, fpr=fpr, found_id=got.id, expected_id=ident.hex())
-    expected = default_mark(32) if mark is None else check_mark(mark)
+    expected = check_mark(mark)  # None: the bundled logo
     found = extract(
         vertices,
         faces,
