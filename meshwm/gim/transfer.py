@@ -20,6 +20,7 @@ from meshwm.gim.sampling import Sampling
 
 __all__ = [
     "DEFAULT_PASSES",
+    "Transfer",
     "DEFAULT_SMOOTHNESS",
     "ENERGIES",
     "transfer_changes",
@@ -209,33 +210,84 @@ def transfer_changes(
     True
     """
     v, f, c = _check_inputs(vertices, faces, sampling, changes)
-    if not np.isfinite(smoothness) or smoothness <= 0:
-        raise ValueError(f"smoothness must be a finite number > 0, got {smoothness}")
-    passes = check_integer(passes, name="passes", low=1)
-    if energy not in ENERGIES:
-        raise ValueError(f"energy must be one of {sorted(ENERGIES)}, got {energy!r}")
-    rows = sampling.covered.ravel()
-    data = sp.csr_matrix(sampling.matrix[rows])
-    target = c[rows]
-    if len(target) == 0:
-        return np.zeros_like(v)
-    laplacian = uniform_laplacian(f, len(v))
-    mu = smoothness * len(target) / len(v)
-    normal = (data.T @ data + mu * ENERGIES[energy](laplacian)).tocsc()
-    epsilon = _DAMPING * max(float(normal.diagonal().mean()), np.finfo(float).tiny)
-    factor = igl.min_quad_with_fixed_data()
-    igl.min_quad_with_fixed_precompute(
-        sp.csc_matrix(normal + epsilon * sp.identity(len(v))),
-        np.zeros(0, dtype=np.int64),
-        sp.csc_matrix((0, len(v))),
-        True,
-        factor,
-    )
-    none = np.zeros((0, 3))
-    displacement = np.zeros_like(v)
-    for _ in range(passes):
-        residual = target - data @ displacement
-        # igl minimises ½ δᵀAδ + δᵀB: B = -Sᵀr gives the normal equations Aδ = Sᵀr.
-        rhs = -np.asarray(data.T @ residual)
-        displacement += igl.min_quad_with_fixed_solve(factor, rhs, none, none)
-    return displacement
+    solver = Transfer(f, sampling, n_vertices=len(v), smoothness=smoothness, energy=energy)
+    return solver.apply(c.reshape(sampling.covered.shape + (3,)), passes=passes)
+
+
+class Transfer:
+    """:func:`transfer_changes` with its factorisation kept, for many changes on one sampling.
+
+    The embedder moves a mesh's vertices in a few passes (embed, transfer, re-sample, embed
+    again); the normal equations depend only on the sampling and the mesh's edges, so they are
+    factorised once here and every :meth:`apply` costs a few back-substitutions.
+
+    Parameters
+    ----------
+    faces : (F, 3) int64 ndarray
+        The mesh's triangles (their edges define the smoothness term).
+    sampling : Sampling
+        The mesh's sampling on the N×N grid.
+    n_vertices : int
+        V (the sampling's columns).
+    smoothness, energy
+        As :func:`transfer_changes`.
+    """
+
+    def __init__(
+        self,
+        faces: NDArray[np.int64],
+        sampling: Sampling,
+        *,
+        n_vertices: int,
+        smoothness: float = DEFAULT_SMOOTHNESS,
+        energy: str = "bilaplacian",
+    ) -> None:
+        if not np.isfinite(smoothness) or smoothness <= 0:
+            raise ValueError(f"smoothness must be a finite number > 0, got {smoothness}")
+        if energy not in ENERGIES:
+            raise ValueError(f"energy must be one of {sorted(ENERGIES)}, got {energy!r}")
+        n = int(n_vertices)
+        self._shape = sampling.covered.shape
+        self._rows = sampling.covered.ravel()
+        self._data = sp.csr_matrix(sampling.matrix[self._rows])
+        self._n = n
+        self._factor = None
+        if self._data.shape[0] == 0:
+            return
+        laplacian = uniform_laplacian(np.asarray(faces, dtype=np.int64), n)
+        mu = smoothness * self._data.shape[0] / n
+        normal = (self._data.T @ self._data + mu * ENERGIES[energy](laplacian)).tocsc()
+        epsilon = _DAMPING * max(float(normal.diagonal().mean()), np.finfo(float).tiny)
+        self._factor = igl.min_quad_with_fixed_data()
+        igl.min_quad_with_fixed_precompute(
+            sp.csc_matrix(normal + epsilon * sp.identity(n)),
+            np.zeros(0, dtype=np.int64),
+            sp.csc_matrix((0, n)),
+            True,
+            self._factor,
+        )
+
+    def apply(self, changes: NDArray[np.float64], *, passes: int = DEFAULT_PASSES) -> NDArray:
+        """The displacement for ``changes`` ((N, N, 3), used on covered points only).
+
+        Returns
+        -------
+        (V, 3) float64 ndarray
+        """
+        passes = check_integer(passes, name="passes", low=1)
+        c = np.asarray(changes, dtype=np.float64)
+        if c.shape != (*self._shape, 3):
+            raise ValueError(f"changes must have shape {(*self._shape, 3)}, got {c.shape}")
+        displacement = np.zeros((self._n, 3))
+        if self._factor is None:
+            return displacement
+        target = c.reshape(-1, 3)[self._rows]
+        if not np.isfinite(target).all():
+            raise ValueError("changes must be finite on the covered grid points")
+        none = np.zeros((0, 3))
+        for _ in range(passes):
+            residual = target - self._data @ displacement
+            # igl minimises ½ δᵀAδ + δᵀB: B = -Sᵀr gives the normal equations Aδ = Sᵀr.
+            rhs = -np.asarray(self._data.T @ residual)
+            displacement += igl.min_quad_with_fixed_solve(self._factor, rhs, none, none)
+        return displacement

@@ -7,7 +7,7 @@ which the detection decision counts.  The decoder of every profile takes its out
 :data:`READERS`; the first that finds an image wins.
 
 To add a reader: one module with a function ``read_x(vertices, faces, *, max_faces) ->
-SampledImage`` that raises :class:`meshwm.errors.GridError` when it finds nothing, and one
+SampledImage`` (or a tuple of them, one per hypothesis it offers) that raises :class:`meshwm.errors.GridError` when it finds nothing, and one
 entry in :data:`READERS`.
 """
 
@@ -19,16 +19,19 @@ from typing import TYPE_CHECKING
 from meshwm._validate import DEFAULT_MAX_FACES
 from meshwm.errors import GridError
 
+from meshwm.readers.base import SampledImage
+
 if TYPE_CHECKING:  # pragma: no cover
     from numpy.typing import NDArray
 
-    from meshwm.readers.base import Reader, SampledImage
+    from meshwm.readers.base import Reader
 
-__all__ = ["READERS", "get_reader", "read_received"]
+__all__ = ["READERS", "get_reader", "read_all", "read_received"]
 
 #: Blind readers, in the order they are tried: name -> "module:function".
 READERS: dict[str, str] = {
     "connectivity": "meshwm.readers.connectivity:read_connectivity",
+    "surface": "meshwm.readers.surface:read_surface",
 }
 
 
@@ -54,10 +57,31 @@ def read_received(
     GridError
         No reader found a geometry image (the first reader's message).
     """
-    errors: list[GridError] = []
+    return read_all(vertices, faces, max_faces=max_faces)[0]
+
+
+def read_all(
+    vertices: NDArray, faces: NDArray, *, max_faces: int = DEFAULT_MAX_FACES
+) -> tuple[SampledImage, ...]:
+    """Every image the first reader in :data:`READERS` that finds any offers.
+
+    A reader may offer several images (the surface reader: one per size); the decoder tries
+    each and counts each as a hypothesis.
+
+    Raises
+    ------
+    MeshError
+        Unusable mesh arrays.
+    GridError
+        No reader found a geometry image (every reader's message, in order).
+    """
+    errors: list[str] = []
     for name in READERS:
         try:
-            return get_reader(name)(vertices, faces, max_faces=max_faces)
+            found = get_reader(name)(vertices, faces, max_faces=max_faces)
         except GridError as exc:
-            errors.append(exc)
-    raise errors[0]
+            errors.append(f"{name}: {exc}")
+            continue
+        # A SampledImage is a NamedTuple itself: test for it, not for tuple.
+        return (found,) if isinstance(found, SampledImage) else tuple(found)
+    raise GridError("; ".join(errors))

@@ -46,10 +46,12 @@ class SampledImage(NamedTuple):
 
 
 class Reader(Protocol):
-    """A blind reader: ``reader(vertices, faces, *, max_faces) -> SampledImage``.
+    """A blind reader: ``reader(vertices, faces, *, max_faces) -> SampledImage`` (or a tuple).
 
     Raises :class:`meshwm.errors.GridError` when it finds no geometry image in the mesh and
     :class:`meshwm.errors.MeshError` for unusable arrays.
     """
 
-    def __call__(self, vertices: NDArray, faces: NDArray, *, max_faces: int) -> SampledImage: ...
+    def __call__(
+        self, vertices: NDArray, faces: NDArray, *, max_faces: int
+    ) -> SampledImage | tuple[SampledImage, ...]: ...

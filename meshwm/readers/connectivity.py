@@ -25,6 +25,7 @@ __all__ = [
     "read_connectivity",
     "read_grid",
     "smoothing_undone",
+    "unsmoothed",
 ]
 
 #: Unsmoothing: the decoder may also try the mesh with k steps of uniform Laplacian smoothing
@@ -92,10 +93,8 @@ def _sampled(points: NDArray[np.float64], index: NDArray) -> NDArray[np.float64]
     return np.where((index >= 0)[..., None], points[np.maximum(index, 0)], np.nan)
 
 
-def smoothing_undone(
-    vertices: NDArray, faces: NDArray, index: NDArray
-) -> list[tuple[int, NDArray[np.float64]]]:
-    """The samples of ``S^-k v`` for k in :data:`UNSMOOTH_STEPS` (k > 0), with k.
+def unsmoothed(vertices: NDArray, faces: NDArray) -> list[tuple[int, NDArray[np.float64]]]:
+    """``S^-k v`` for k in :data:`UNSMOOTH_STEPS` (k > 0), with k.
 
     Uniform Laplacian smoothing is a known linear map of the mesh's own connectivity,
     ``S = I + λ (M - I)`` (:func:`meshwm.mesh.clean.uniform_smoothing_operator`), and
@@ -105,13 +104,11 @@ def smoothing_undone(
 
     Parameters
     ----------
-    vertices, faces : ndarray
-        The mesh the grid was read from.
-    index : (N, N) int ndarray
-        Vertex of each grid sample, -1 where the mesh lost it.
+    vertices : (n, 3) ndarray
+    faces : (m, 3) int ndarray
+        The received mesh's connectivity.
     """
     v = np.asarray(vertices, dtype=np.float64)
-    index = np.asarray(index)
     mean, moved = uniform_smoothing_operator(len(v), np.asarray(faces))
     lap = sp.diags(moved.astype(np.float64)) @ (mean - sp.identity(len(v), format="csr"))
     lap = (UNSMOOTH_LAMBDA * lap).tocsr()
@@ -123,8 +120,24 @@ def smoothing_undone(
             y = x - lap @ y
         x = y
         if k in UNSMOOTH_STEPS:
-            out.append((k, _sampled(x, index)))
+            out.append((k, x))
     return out
+
+
+def smoothing_undone(
+    vertices: NDArray, faces: NDArray, index: NDArray
+) -> list[tuple[int, NDArray[np.float64]]]:
+    """The grid samples of :func:`unsmoothed` ``(vertices, faces)``, with k.
+
+    Parameters
+    ----------
+    vertices, faces : ndarray
+        The mesh the grid was read from.
+    index : (N, N) int ndarray
+        Vertex of each grid sample, -1 where the mesh lost it.
+    """
+    index = np.asarray(index)
+    return [(k, _sampled(x, index)) for k, x in unsmoothed(vertices, faces)]
 
 
 def read_connectivity(

@@ -8,7 +8,7 @@ from typing import Any, NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from meshwm._validate import DEFAULT_MAX_FACES
+from meshwm._validate import DEFAULT_MAX_FACES, check_mesh
 from meshwm.errors import CapacityError, GridError, MeshError
 from meshwm.gim.recover import recover_grid
 from meshwm.gim.remesh import GeometryImage, mesh_to_geometry_image
@@ -118,8 +118,9 @@ def embed(
     distances: bool = True,
     geometry_image: GeometryImage | None = None,
     ident: bytes | None = None,
+    grid: bool = False,
 ) -> Embedded:
-    """Watermark a triangle mesh: remesh to a geometry image, embed the mark, write back.
+    """Watermark a triangle mesh: mark its own vertices (default), or remesh it to the grid.
 
     Parameters
     ----------
@@ -143,18 +144,24 @@ def embed(
         code bits) instead of a mark; ``mark`` must then be None.  Read back with
         :func:`extract_id`.
     geometry_image : GeometryImage, optional
-        ``mesh_to_geometry_image(vertices, faces, size=params.size)`` computed earlier (the
-        remesh is most of an embedding's time; a benchmark that marks one mesh at many
-        strengths passes it in).  Not checked against ``vertices`` beyond its size.
+        With ``grid``: ``mesh_to_geometry_image(vertices, faces, size=params.size)`` computed
+        earlier (the remesh is most of an embedding's time; a benchmark that marks one mesh at
+        many strengths passes it in).  Not checked against ``vertices`` beyond its size.
+    grid : bool, optional
+        False (default): keep the input's mesh, move only its vertices
+        (:mod:`meshwm.watermark.keep`; ``params.size`` is not used, the size follows the mesh).
+        True: the paper's output, the N×N semi-regular grid mesh of the geometry image.
 
     Returns
     -------
     Embedded
-        The marked mesh (the geometry-image grid, then any other components unchanged) and a
-        report: ``n``, ``capacity_bits``, ``used_bits``, ``carriers``, ``psnr``, and with
-        ``distances``: ``mrms_rel`` (the mark alone: the larger one-sided RMS surface distance
-        between the unmarked and marked geometry-image meshes, over the bounding-box diagonal),
-        ``hausdorff_rel`` and ``rms_rel`` (output against input, remeshing included).
+        The marked mesh and a report: ``n``, ``capacity_bits``, ``used_bits``, ``carriers``,
+        ``psnr``, and with ``distances``: ``mrms_rel`` (the larger one-sided RMS surface
+        distance between the input and the output, over the input's bounding-box diagonal; with
+        ``grid``, between the unmarked and marked grid meshes, the mark alone),
+        ``hausdorff_rel`` and ``rms_rel`` (output against input).  Kept meshes: the input's
+        vertices (moved) and faces; grid: the geometry-image grid, then any other components
+        unchanged.
 
     Raises
     ------
@@ -168,6 +175,80 @@ def embed(
     if ident is not None and mark is not None:
         raise ValueError("embed either a mark or an id, not both")
     mark = check_mark(mark)
+    if ident is not None:
+        bits = encode_id(ident)
+    else:
+        bits = arnold_scramble(mark, iterations=params.arnold_iterations).ravel()
+    if not grid:
+        if geometry_image is not None:
+            raise ValueError("geometry_image is for grid=True only")
+        out = _embed_kept(vertices, faces, bits, key=key, params=params, max_faces=max_faces)
+        if distances:
+            out.report.update(_distances_to_input(vertices, faces, out.vertices, out.faces))
+    else:
+        out = _embed_grid(
+            vertices,
+            faces,
+            bits,
+            key=key,
+            params=params,
+            max_faces=max_faces,
+            distances=distances,
+            geometry_image=geometry_image,
+        )
+    report = out.report
+    if ident is not None:
+        report["id"] = bytes(ident).hex()
+    else:
+        report["mark_size"] = int(mark.shape[0])
+    report["seconds"] = time.perf_counter() - t0
+    return out
+
+
+def _distances_to_input(
+    vertices: NDArray, faces: NDArray, out_v: NDArray, out_f: NDArray
+) -> dict[str, float]:
+    """MRMS, Hausdorff and RMS of the output against the input, over the input's diagonal."""
+    v = np.asarray(vertices, dtype=np.float64)
+    f = np.asarray(faces, dtype=np.int64)
+    d = surface_distance(v, f, out_v, out_f)
+    return {
+        "mrms_rel": d.rms / d.diagonal,
+        "hausdorff_rel": d.hausdorff / d.diagonal,
+        "rms_rel": d.rms / d.diagonal,
+    }
+
+
+def _embed_kept(
+    vertices: NDArray,
+    faces: NDArray,
+    bits: NDArray[np.uint8],
+    *,
+    key: str | bytes,
+    params: WatermarkParams,
+    max_faces: int,
+) -> Embedded:
+    from meshwm.watermark.keep import embed_kept
+
+    v, f = check_mesh(vertices, faces, max_faces=max_faces)
+    kept = embed_kept(v, f, bits, key=key, params=params, max_faces=max_faces)
+    report: dict[str, Any] = {"profile": params.profile, "mode": "kept", **kept.report}
+    report["vertices"] = len(v)
+    report["faces"] = len(f)
+    return Embedded(kept.vertices, f, report)
+
+
+def _embed_grid(
+    vertices: NDArray,
+    faces: NDArray,
+    bits: NDArray[np.uint8],
+    *,
+    key: str | bytes,
+    params: WatermarkParams,
+    max_faces: int,
+    distances: bool,
+    geometry_image: GeometryImage | None,
+) -> Embedded:
     if geometry_image is None:
         g = mesh_to_geometry_image(vertices, faces, size=params.size, max_faces=max_faces)
     elif geometry_image.gim.shape != (params.size, params.size, 3):
@@ -187,10 +268,6 @@ def embed(
         cover = recover_grid(grid_v, grid_f)
     except GridError as exc:  # pragma: no cover - a remesher bug, not bad input
         raise MeshError(f"internal error: the geometry image does not read back ({exc})") from exc
-    if ident is not None:
-        bits = encode_id(ident)
-    else:
-        bits = arnold_scramble(mark, iterations=params.arnold_iterations).ravel()
     try:
         marked = get_profile(params.profile).embed(cover.gim, bits, key=key, options=params.options)
     except CapacityError:
@@ -199,7 +276,12 @@ def embed(
         raise MeshError(str(exc)) from exc
     unmarked_v = grid_v.copy()
     out_v[cover.index.ravel()] = marked.marked.reshape(-1, 3)
-    report: dict[str, Any] = {"n": params.size, "profile": params.profile, **marked.report}
+    report: dict[str, Any] = {
+        "n": params.size,
+        "profile": params.profile,
+        "mode": "grid",
+        **marked.report,
+    }
     # STL stores float32 and re-welds by position: distinct vertices must stay distinct.
     as32 = out_v[:n_grid_v].astype(np.float32)
     report["float32_distinct"] = bool(len(np.unique(as32, axis=0)) == n_grid_v)
@@ -213,9 +295,4 @@ def embed(
         report["rms_rel"] = d_all.rms / d_all.diagonal
     report["vertices"] = len(out_v)
     report["faces"] = len(out_f)
-    if ident is not None:
-        report["id"] = bytes(ident).hex()
-    else:
-        report["mark_size"] = int(mark.shape[0])
-    report["seconds"] = time.perf_counter() - t0
     return Embedded(out_v, out_f, report)

@@ -16,7 +16,7 @@ from meshwm.message.scramble import arnold_scramble, arnold_unscramble
 from meshwm.metrics import bit_error_rate, correlation2
 from meshwm.params import WatermarkParams
 from meshwm.profiles import get_profile
-from meshwm.readers import read_received
+from meshwm.readers import read_all
 from meshwm.readers.base import SampledImage
 from meshwm.watermark.embed import check_gim, check_mark
 
@@ -92,7 +92,7 @@ def extract_gim(
 class Decoder:
     """A received mesh, read once, to decode with one key or many.
 
-    Reading the geometry image (:func:`meshwm.readers.read_received`) and the key-independent
+    Reading the geometry image (:func:`meshwm.readers.read_all`) and the key-independent
     analysis (the profile's ``prepare``) are done once; each :meth:`extract` /
     :meth:`extract_id` then only runs the keyed decoder.  :func:`extract` and
     :func:`extract_id` are ``Decoder(...).extract(...)`` and ``Decoder(...).extract_id(...)``.
@@ -132,27 +132,38 @@ class Decoder:
         params: WatermarkParams | None = None,
         max_faces: int = DEFAULT_MAX_FACES,
     ) -> None:
-        image = read_received(vertices, faces, max_faces=max_faces)
+        images = read_all(vertices, faces, max_faces=max_faces)
         params = params or WatermarkParams()
-        if image.n != params.size:
-            params = dataclasses.replace(params, size=image.n)
-        #: What the reader re-derived (:class:`meshwm.readers.base.SampledImage`).
-        self.image = image
-        #: The parameters used (``size`` is the N found).
+        if images[0].n != params.size:
+            params = dataclasses.replace(params, size=images[0].n)
+        #: Every image the reader re-derived (:class:`meshwm.readers.base.SampledImage`); the
+        #: decoder tries each (a reader that samples at several sizes offers several).
+        self.images = images
+        #: The first of them.
+        self.image = images[0]
+        #: The parameters used (``size`` is the first N found).
         self.params = params
         self._profile = get_profile(params.profile)
-        self._prepared = self._profile.prepare(image, options=params.options)
+        self._prepared = [self._profile.prepare(im, options=params.options) for im in images]
 
     def decode(
         self, n_bits: int, *, key: str | bytes
     ) -> tuple[NDArray[np.uint8], NDArray[np.float64], dict[str, Any]]:
         """``n_bits`` raw bits, their confidence, and a report with ``hypotheses``.
 
-        ``hypotheses`` is the reader's count times the profile's (gains, candidates).
+        Every image the reader offered is decoded and the one with the highest mean |confidence|
+        kept (its ``n`` and ``reader`` are reported); ``hypotheses`` is the sum over the images
+        of the reader's count times the profile's (gains, candidates).
         """
-        found = self._profile.decode(self._prepared, n_bits, key=key)
-        hypotheses = self.image.hypotheses * int(found.report.get("hypotheses", 1))
-        return found.bits, found.confidence, {**found.report, "hypotheses": hypotheses}
+        hypotheses = 0
+        tried = []
+        for image, prepared in zip(self.images, self._prepared, strict=True):
+            found = self._profile.decode(prepared, n_bits, key=key)
+            hypotheses += image.hypotheses * int(found.report.get("hypotheses", 1))
+            tried.append((float(np.mean(np.abs(found.confidence))), image, found))
+        _, image, found = max(tried, key=lambda t: t[0])
+        report = {**found.report, "n": image.n, "reader": image.reader, "hypotheses": hypotheses}
+        return found.bits, found.confidence, report
 
     def extract(
         self, *, key: str | bytes, mark_size: int = 32, expected: NDArray | None = None
@@ -163,12 +174,7 @@ class Decoder:
         n_bits = int(mark_size) ** 2
         bits, confidence, found_report = self.decode(n_bits, key=key)
         mark = _as_mark(bits, params.arnold_iterations)
-        report = {
-            "n": self.image.n,
-            "profile": params.profile,
-            **found_report,
-            "mark_size": int(mark_size),
-        }
+        report = {"profile": params.profile, **found_report, "mark_size": int(mark_size)}
         if expected is not None:
             exp = check_mark(expected)
             if exp.shape != mark.shape:
@@ -187,13 +193,7 @@ class Decoder:
         t0 = time.perf_counter()
         bits, confidence, found = self.decode(PAYLOAD_BITS, key=key)
         ident = decode_id(bits, confidence)
-        report = {
-            "n": self.image.n,
-            "profile": self.params.profile,
-            **found,
-            "id": ident,
-            "bits": PAYLOAD_BITS,
-        }
+        report = {"profile": self.params.profile, **found, "id": ident, "bits": PAYLOAD_BITS}
         if expected is not None:
             code = encode_id(expected)
             agree = int(np.sum(code == bits))

@@ -1,0 +1,172 @@
+"""The geometry image of a mesh as it is: its own vertices sampled through a stable map.
+
+The paper's pipeline (Tamane & Deshmukh, *Blind 3D model watermarking based on
+multi-resolution representation and fuzzy logic*) remeshes the input into its geometry image and
+hands back the grid.  Here the geometry image is only a *view* of the user's mesh: the mesh is
+cut and mapped to the unit square (:func:`meshwm.gim.tutte.stable_parameterize`), and the N×N
+samples are barycentric combinations of its vertices (:func:`meshwm.gim.sampling.sampling_matrix`),
+one sparse matrix ``S`` with ``samples = S @ positions``.  The embedder moves the vertices so
+that ``S`` reproduces the marked image (:mod:`meshwm.gim.transfer`); a blind reader re-derives
+the same ``S`` from the received mesh alone and samples it.
+
+What is sampled
+---------------
+The mesh is cleaned first (:func:`meshwm.mesh.clean.clean_mesh`: vertices at exactly the same
+position merged, degenerate faces dropped, pinched edges and vertices split, orientation made
+consistent, the largest component by area kept), so an STL soup, a file with vertices split at
+UV seams and the same file welded give one surface.  Every vertex of the cleaned component has
+the position of some input vertex, and the matrix is expressed over the input's *distinct
+positions*: all input vertices at one position move together, so a seam never opens.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+import scipy.sparse as sp
+from numpy.typing import NDArray
+
+from meshwm._validate import DEFAULT_MAX_FACES, check_mesh
+from meshwm.errors import MeshError
+from meshwm.gim.sampling import sampling_matrix
+from meshwm.gim.tutte import StableMap, stable_parameterize
+from meshwm.mesh.clean import clean_mesh
+
+__all__ = ["SURFACE_SIZES", "Surface", "SurfaceImage", "sample_surface", "surface_of"]
+
+#: The geometry-image sizes a mesh is sampled at (the embedder picks one, the reader tries all).
+SURFACE_SIZES = (128, 256)
+
+
+class Surface(NamedTuple):
+    """A mesh's largest clean component, mapped, over the input's distinct positions.
+
+    Attributes
+    ----------
+    positions : (p, 3) float64 ndarray
+        The input's distinct vertex positions.
+    inverse : (n,) int64 ndarray
+        The position of each input vertex: ``positions[inverse]`` is the input's vertices.
+    faces : (m, 3) int64 ndarray
+        The cleaned component's triangles over ``positions`` (pinched vertices joined again).
+    used : (p,) bool ndarray
+        The positions the cleaned component uses (the others belong to other components).
+    map : StableMap
+        The cut and map of the cleaned component (on its own vertex numbering).
+    clean_to_position : (k,) int64 ndarray
+        The position of each vertex of the cleaned component.
+    report : dict
+        ``components``, ``vertices_merged`` and the other counts of the cleaning.
+    """
+
+    positions: NDArray[np.float64]
+    inverse: NDArray[np.int64]
+    faces: NDArray[np.int64]
+    used: NDArray[np.bool_]
+    map: StableMap
+    clean_to_position: NDArray[np.int64]
+    report: dict
+
+
+class SurfaceImage(NamedTuple):
+    """The N×N sampling of a :class:`Surface`.
+
+    Attributes
+    ----------
+    samples : (N, N, 3) float64 ndarray
+        ``matrix @ positions``, NaN where no triangle covers the grid point.
+    matrix : (N², p) scipy.sparse.csr_matrix
+        Barycentric weights over the distinct positions.
+    covered : (N, N) bool ndarray
+    """
+
+    samples: NDArray[np.float64]
+    matrix: sp.csr_matrix
+    covered: NDArray[np.bool_]
+
+    @property
+    def n(self) -> int:
+        """The grid size N."""
+        return int(self.covered.shape[0])
+
+
+def _distinct(vertices: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+    """Distinct rows (bit-exact) and the index of each input row among them."""
+    view = np.ascontiguousarray(vertices).view(np.dtype((np.void, 24))).ravel()
+    _, first, inverse = np.unique(view, return_index=True, return_inverse=True)
+    order = np.argsort(first)  # positions numbered by first appearance: order-free enough
+    rank = np.empty_like(order)
+    rank[order] = np.arange(len(order))
+    return vertices[first[order]], rank[inverse.ravel()].astype(np.int64)
+
+
+def _locate(positions: NDArray[np.float64], points: NDArray[np.float64]) -> NDArray[np.int64]:
+    """The distinct position equal to each point (every point is one of them)."""
+    both = np.concatenate([positions, points])
+    view = np.ascontiguousarray(both).view(np.dtype((np.void, 24))).ravel()
+    _, first, inv = np.unique(view, return_index=True, return_inverse=True)
+    found = first[inv.ravel()[len(positions) :]]
+    if np.any(found >= len(positions)):  # pragma: no cover - clean_mesh moves no vertex
+        raise MeshError("internal error: a cleaned vertex is not an input position")
+    return found.astype(np.int64)
+
+
+def surface_of(
+    vertices: NDArray, faces: NDArray, *, max_faces: int = DEFAULT_MAX_FACES
+) -> Surface:
+    """Clean, weld and map a mesh (see the module notes).
+
+    Parameters
+    ----------
+    vertices : (n, 3) array_like of float
+    faces : (m, 3) array_like of int
+    max_faces : int, optional
+        Refuse larger inputs.
+
+    Returns
+    -------
+    Surface
+
+    Raises
+    ------
+    MeshError
+        Unusable arrays, a non-manifold or non-orientable surface, or one the map cannot open
+        to a disk.
+    """
+    v, f = check_mesh(vertices, faces, max_faces=max_faces)
+    positions, inverse = _distinct(v)
+    clean = clean_mesh(v, f, max_faces=max_faces)
+    to_position = _locate(positions, clean.vertices)
+    smap = stable_parameterize(clean.vertices, clean.faces)
+    used = np.zeros(len(positions), dtype=bool)
+    used[to_position] = True
+    return Surface(
+        positions, inverse, to_position[clean.faces], used, smap, to_position, clean.report
+    )
+
+
+def sample_surface(surface: Surface, *, size: int) -> SurfaceImage:
+    """The ``size``-square sampling of a mapped surface, over its distinct positions.
+
+    Parameters
+    ----------
+    surface : Surface
+    size : int
+        N.
+
+    Returns
+    -------
+    SurfaceImage
+    """
+    cut = surface.map.cut.mesh
+    sampling = sampling_matrix(surface.map.uv, cut.faces, size)
+    k = len(cut.origin)
+    to_position = surface.clean_to_position[cut.origin]
+    fold = sp.csr_matrix(
+        (np.ones(k), (np.arange(k), to_position)), shape=(k, len(surface.positions))
+    )
+    matrix = sp.csr_matrix(sampling.matrix @ fold)
+    samples = np.asarray(matrix @ surface.positions).reshape(size, size, 3)
+    samples[~sampling.covered] = np.nan
+    return SurfaceImage(samples, matrix, sampling.covered)

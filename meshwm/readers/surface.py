@@ -1,0 +1,81 @@
+"""The surface reader: the geometry image re-derived from any received mesh, blind.
+
+For a mesh meshwm marked in place (its own vertices and faces, :mod:`meshwm.watermark.keep`):
+the received mesh is cleaned, cut and mapped exactly as the embedder did
+(:func:`meshwm.gim.surface.surface_of`), from its geometry and connectivity alone: no vertex
+order, file metadata or side information is used, and the map is one the mark, noise, smoothing,
+quantisation and similarities do not move.  The mesh is then sampled at every size of
+:data:`meshwm.gim.surface.SURFACE_SIZES` (the embedder picked one; the decoder tries each, and
+each counts as a hypothesis).  The decoder is also offered the received mesh with uniform
+Laplacian smoothing undone, sampled the same way.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+from meshwm._validate import DEFAULT_MAX_FACES, check_mesh
+from meshwm.errors import GridError, MeshError
+from meshwm.gim.surface import SURFACE_SIZES, SurfaceImage, sample_surface, surface_of
+from meshwm.readers.base import SampledImage
+from meshwm.readers.connectivity import unsmoothed
+
+__all__ = ["read_surface"]
+
+
+def _undone(
+    positions: NDArray[np.float64], faces: NDArray[np.int64], image: SurfaceImage
+) -> list[tuple[int, NDArray[np.float64]]]:
+    out = []
+    for k, x in unsmoothed(positions, faces):
+        samples = np.asarray(image.matrix @ x).reshape(image.samples.shape)
+        samples[~image.covered] = np.nan
+        out.append((k, samples))
+    return out
+
+
+def read_surface(
+    vertices: NDArray, faces: NDArray, *, max_faces: int = DEFAULT_MAX_FACES
+) -> tuple[SampledImage, ...]:
+    """Sample a received mesh through its re-derived stable map, at every size.
+
+    Parameters
+    ----------
+    vertices, faces : array_like
+        The received mesh (any vertex and face order, any pose).
+    max_faces : int, optional
+        Refuse larger inputs.
+
+    Returns
+    -------
+    tuple of SampledImage
+        One per size of :data:`~meshwm.gim.surface.SURFACE_SIZES`, each one hypothesis.
+
+    Raises
+    ------
+    MeshError
+        Unusable mesh arrays.
+    GridError
+        A surface the map cannot open (non-manifold, non-orientable, too small).
+    """
+    v, f = check_mesh(vertices, faces, max_faces=max_faces)  # unusable arrays: MeshError
+    try:
+        surface = surface_of(v, f, max_faces=max_faces)
+    except MeshError as exc:  # a surface the map cannot open: nothing to read
+        raise GridError(f"the surface cannot be mapped: {exc}") from exc
+    images = []
+    used_faces = surface.faces
+    for n in SURFACE_SIZES:
+        image = sample_surface(surface, size=n)
+        images.append(
+            SampledImage(
+                samples=image.samples,
+                hypotheses=1,
+                reader="surface",
+                smoothing_undone=lambda image=image: _undone(  # type: ignore[misc]
+                    surface.positions, used_faces, image
+                ),
+            )
+        )
+    return tuple(images)
