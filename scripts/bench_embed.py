@@ -74,7 +74,7 @@ def main(argv: list[str] | None = None) -> int:
         for k in range(args.repeats + 1):
             t0 = time.perf_counter()
             v, f = read_mesh(path)
-            result = embed(v, f, mark, key="bench", params=params, distances=False)
+            result = embed(v, f, mark, key="bench", params=params, distances=False, grid=True)
             write_mesh(out, result.vertices, result.faces)
             t1 = time.perf_counter()
             v2, f2 = read_mesh(out)
@@ -91,7 +91,7 @@ def main(argv: list[str] | None = None) -> int:
         for _ in range(max(1, args.repeats // 2)):
             t0 = time.perf_counter()
             v, f = read_mesh(path)
-            result = embed(v, f, mark, key="bench", params=params, distances=True)
+            result = embed(v, f, mark, key="bench", params=params, distances=True, grid=True)
             write_mesh(out, result.vertices, result.faces)
             times["embed + distances"].append(time.perf_counter() - t0)
     floor = statistics.median(floors)

@@ -144,6 +144,7 @@ def _mark_one_mesh(args: tuple[str, list[tuple[str, str]], str]) -> dict[str, An
             ident=bytes.fromhex(hexid),
             geometry_image=gim,
             distances=False,
+            grid=True,
         )
         write_mesh(Path(folder) / name, res.vertices, res.faces)
     return {

@@ -267,7 +267,7 @@ def check_mesh(
     ident = hashlib.sha256(name.encode()).digest()[:8]
     key = f"pipeline-{name}"
     v, f = read_mesh(path)
-    res = embed(v, f, key=key, ident=ident, distances=False)
+    res = embed(v, f, key=key, ident=ident, distances=False, grid=True)
     if res.report["n"] != SIZE or res.report["profile"] != "robust":
         got = f"N = {res.report['n']}, {res.report['profile']}"
         raise RuntimeError(f"the default parameters changed ({got})")

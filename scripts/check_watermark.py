@@ -50,7 +50,7 @@ def check_mesh(path: Path, trials: int, tmp: Path) -> dict:
     mark = default_mark(32)
     key = f"acceptance-{path.stem}"
     v, f = read_mesh(path)
-    result = embed(v, f, mark, key=key)
+    result = embed(v, f, mark, key=key, grid=True)
     r = result.report
     row: dict = {
         "mesh": path.stem,

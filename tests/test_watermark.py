@@ -305,12 +305,12 @@ MARK = default_mark(32)
 
 @pytest.fixture(scope="module")
 def marked_spot(spot_mesh):
-    return embed(*spot_mesh, MARK, key=KEY, params=P128)
+    return embed(*spot_mesh, MARK, key=KEY, params=P128, grid=True)
 
 
 @pytest.fixture(scope="module")
 def marked_kitten(kitten_mesh):
-    return embed(*kitten_mesh, MARK, key=KEY, params=P128, distances=False)
+    return embed(*kitten_mesh, MARK, key=KEY, params=P128, distances=False, grid=True)
 
 
 def test_mesh_extract_after_embed_is_exact(marked_spot):
@@ -338,7 +338,7 @@ ATTACK_CASES = [
 )
 def test_mesh_mark_survives_lossless_attacks(marked_spot, attack, options):
     v, f = apply_attack(attack, marked_spot.vertices, marked_spot.faces, seed=3, **options)
-    found = extract(v, f, key=KEY, expected=MARK, params=P128)
+    found = extract(v, f, key=KEY, expected=MARK, params=P128, grid=True)
     assert found.report["ber"] == 0.0
     assert_array_equal(found.mark, MARK)
 
@@ -403,13 +403,13 @@ def test_mesh_report(marked_spot):
 
 def test_mesh_embedding_keeps_the_grid_connectivity(marked_spot, spot_mesh):
     """Only vertices move: the faces are the unmarked geometry-image mesh's."""
-    again = embed(*spot_mesh, MARK, key="another key", params=P128, distances=False)
+    again = embed(*spot_mesh, MARK, key="another key", params=P128, distances=False, grid=True)
     assert_array_equal(again.faces, marked_spot.faces)
     assert not np.array_equal(again.vertices, marked_spot.vertices)
 
 
 def test_mesh_embedding_is_deterministic(marked_spot, spot_mesh):
-    again = embed(*spot_mesh, MARK, key=KEY, params=P128, distances=False)
+    again = embed(*spot_mesh, MARK, key=KEY, params=P128, distances=False, grid=True)
     assert_array_equal(again.vertices, marked_spot.vertices)
     assert_array_equal(again.faces, marked_spot.faces)
 
@@ -433,7 +433,7 @@ def test_decoder_decodes_many_keys_like_extract(spot_mesh):
     v, f = spot_mesh
     p = WatermarkParams(size=64)
     logo = default_mark(8)
-    marked = embed(v, f, logo, key="right", params=p, distances=False)
+    marked = embed(v, f, logo, key="right", params=p, distances=False, grid=True)
     reader = Decoder(marked.vertices, marked.faces, params=p)
     assert reader.image.n == 64 and reader.image.reader == "connectivity"
     for key in ("right", "wrong", "right"):
@@ -444,7 +444,7 @@ def test_decoder_decodes_many_keys_like_extract(spot_mesh):
         assert a.report["hypotheses"] == b.report["hypotheses"]
     assert reader.extract(key="right", mark_size=8, expected=logo).report["ber"] == 0.0
     ident = bytes.fromhex("00112233445566ff")
-    with_id = embed(v, f, key="right", params=p, distances=False, ident=ident)
+    with_id = embed(v, f, key="right", params=p, distances=False, ident=ident, grid=True)
     reader = Decoder(with_id.vertices, with_id.faces, params=p)
     assert reader.extract_id(key="right").id == ident.hex()
     assert reader.extract_id(key="wrong").id is None
@@ -463,7 +463,7 @@ def test_id_survives_meshlab_welding(mesh, threshold, request):
 
     v, f = request.getfixturevalue(mesh)
     ident = bytes.fromhex("0badc0ffee000001")
-    marked = embed(v, f, key="weld", ident=ident, distances=False)
+    marked = embed(v, f, key="weld", ident=ident, distances=False, grid=True)
     ms = pymeshlab.MeshSet()
     ms.add_mesh(pymeshlab.Mesh(marked.vertices, marked.faces))
     if threshold is None:

@@ -88,7 +88,7 @@ def run_demo(out: str | os.PathLike, *, echo=print) -> list[dict]:
     mark = default_mark(32)
     vertices, faces = read_mesh(bundled_mesh_path())
     echo(f"embedding a 32×32 logo into spot ({len(vertices)} vertices) at N=256 ...")
-    result = embed(vertices, faces, mark, key=_KEY)
+    result = embed(vertices, faces, mark, key=_KEY, grid=True)
     r = result.report
     marked_path = out / "spot_marked.ply"
     assert result.faces is not None  # embed of a mesh returns its faces (for mypy)

@@ -72,7 +72,7 @@ def mesh_attack_runs(
         "vertices_in": len(model.vertices),
     }
     try:
-        marked = embed(model.vertices, model.faces, mark, key=KEY, params=params)
+        marked = embed(model.vertices, model.faces, mark, key=KEY, params=params, grid=True)
     except MeshError as exc:
         distortion.update(
             psnr=None,

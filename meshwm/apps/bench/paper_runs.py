@@ -107,6 +107,7 @@ class _Job(NamedTuple):
             params=bench_params(self.profile, step),
             distances=False,
             geometry_image=self.remesh(model.vertices, model.faces, size=SIZE),
+            grid=True,
         )
 
 
