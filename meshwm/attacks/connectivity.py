@@ -219,8 +219,8 @@ class _Flipper:
         m1, m2 = _normal(pts[p], pts[d], pts[c]), _normal(pts[d], pts[q], pts[c])
         if _cos(n1, n2) <= cos_limit or min(_cos(m, o) for m in (m1, m2) for o in (n1, n2)) <= 0:
             return None
-        self.faces[fa] = (p, d, c)
-        self.faces[fb] = (d, q, c)
+        self.faces[fa, (i + 1) % 3] = d  # (p, q, c) -> (p, d, c)
+        self.faces[fb, self.faces[fb].tolist().index(p)] = c  # (q, p, d) -> (q, c, d)
         del self.edge_faces[self._key(p, q)]
         self.edge_faces[self._key(c, d)] = (fa, fb)
         self._replace(p, d, fb, fa)
@@ -279,9 +279,10 @@ def flip_flat_edges(
     The candidates are :func:`flat_edges` of the input, tried once each in a seeded random
     order.  When its turn comes an edge is checked again on the current mesh (a neighbour's
     flip may have changed its two faces): still flat, the opposite vertices not joined, no
-    fold.  Faces ``(p, q, c)`` and ``(q, p, d)`` become ``(p, d, c)`` and ``(d, q, c)`` in
-    the same two rows: orientation is kept.  No flip re-creates an edge an earlier flip removed,
-    so the output's edges differ from the input's in exactly ``len(removed)`` edges.
+    fold.  Faces ``(p, q, c)`` and ``(q, p, d)`` become ``(p, d, c)`` and ``(q, c, d)`` in
+    the same two rows, the two kept corners of each in their places: orientation is kept.  No
+    flip re-creates an edge an earlier flip removed, so the output's edges differ from the
+    input's in exactly ``len(removed)`` edges.
     """
     opts = check_options("flip_edges", count=count, max_dihedral=max_dihedral)
     v, f = check_mesh(vertices, faces)
@@ -315,8 +316,8 @@ def flip_edges(
     Examples
     --------
     >>> v = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0]])
-    >>> flip_edges(v, [[0, 1, 2], [0, 2, 3]])[1].tolist()
-    [[0, 1, 3], [1, 2, 3]]
+    >>> flip_edges(v, [[0, 1, 2], [0, 2, 3]])[1].tolist()  # diagonal 0-2 becomes 1-3
+    [[3, 1, 2], [0, 1, 3]]
     """
     result = flip_flat_edges(vertices, faces, seed=seed, count=count, max_dihedral=max_dihedral)
     return check_mesh(vertices, faces)[0], result.faces
