@@ -63,8 +63,9 @@ class EdgePairs(NamedTuple):
     """Interior edges of a mesh, each with its two faces: result of :func:`interior_pairs`.
 
     Row ``k`` is the edge ``a[k] -> b[k]`` of face ``fa[k]`` (third corner ``c[k]``), traversed
-    ``b[k] -> a[k]`` by face ``fb[k]`` (third corner ``d[k]``); ``keys`` lists every edge of the
-    mesh, interior or not, as ``lo * n + hi`` (``lo < hi``, n the vertex count), sorted.
+    ``b[k] -> a[k]`` by face ``fb[k]`` (third corner ``d[k]``), rows in increasing order of
+    their edge's key; ``keys`` lists every edge of the mesh, interior or not, as
+    ``lo * n + hi`` (``lo < hi``, n the vertex count), sorted.
     """
 
     a: NDArray[np.int64]
@@ -103,26 +104,30 @@ def _unit_normals(v: NDArray[np.float64], tri: NDArray[np.int64]) -> NDArray[np.
         return n / length  # NaN for a zero-area triangle: every comparison below is False
 
 
-def _flippable(v: NDArray[np.float64], pairs: EdgePairs, max_dihedral: float) -> NDArray[np.bool_]:
+def _flippable(
+    v: NDArray[np.float64], faces: NDArray[np.int64], pairs: EdgePairs, max_dihedral: float
+) -> NDArray[np.bool_]:
     """Which pairs are flat (dihedral < max) and flip without folding or doubling an edge."""
     a, b, c, d = pairs.a, pairs.b, pairs.c, pairs.d
-    n1 = _unit_normals(v, np.stack([a, b, c], axis=1))
-    n2 = _unit_normals(v, np.stack([b, a, d], axis=1))
-    m1 = _unit_normals(v, np.stack([a, d, c], axis=1))
-    m2 = _unit_normals(v, np.stack([d, b, c], axis=1))
+    normals = _unit_normals(v, faces)
+    n1, n2 = normals[pairs.fa], normals[pairs.fb]
     cos_limit = math.cos(math.radians(max_dihedral))
     with np.errstate(invalid="ignore"):
-        flat = np.einsum("ij,ij->i", n1, n2) > cos_limit
-        unfolded = np.ones(len(a), dtype=bool)
-        for new in (m1, m2):
+        ok = np.flatnonzero((np.einsum("ij,ij->i", n1, n2) > cos_limit) & (c != d))
+    a, b, c, d, n1, n2 = a[ok], b[ok], c[ok], d[ok], n1[ok], n2[ok]
+    unfolded = np.ones(len(ok), dtype=bool)
+    with np.errstate(invalid="ignore"):
+        for new in (
+            _unit_normals(v, np.stack([a, d, c], 1)),
+            _unit_normals(v, np.stack([d, b, c], 1)),
+        ):
             for old in (n1, n2):
                 unfolded &= np.einsum("ij,ij->i", new, old) > 0
-    n = v.shape[0]
-    lo, hi = np.minimum(c, d), np.maximum(c, d)
-    new_keys = lo * n + hi
+    new_keys = np.minimum(c, d) * v.shape[0] + np.maximum(c, d)
     where = np.clip(np.searchsorted(pairs.keys, new_keys), 0, len(pairs.keys) - 1)
-    adjacent = pairs.keys[where] == new_keys
-    return flat & unfolded & (c != d) & ~adjacent
+    result = np.zeros(len(pairs.a), dtype=bool)
+    result[ok] = unfolded & (pairs.keys[where] != new_keys)
+    return result
 
 
 def flat_edges(vertices: NDArray, faces: NDArray, *, max_dihedral: float = 10.0) -> NDArray:
@@ -147,7 +152,7 @@ def flat_edges(vertices: NDArray, faces: NDArray, *, max_dihedral: float = 10.0)
     max_dihedral = check_options("flip_edges", max_dihedral=max_dihedral)["max_dihedral"]
     v, f = check_mesh(vertices, faces)
     pairs = interior_pairs(len(v), f)
-    ok = _flippable(v, pairs, max_dihedral)
+    ok = _flippable(v, f, pairs, max_dihedral)
     edges = np.stack([np.minimum(pairs.a, pairs.b), np.maximum(pairs.a, pairs.b)], axis=1)[ok]
     return edges[np.lexsort(edges.T[::-1])]
 
@@ -171,37 +176,56 @@ def _cos(n1: tuple[float, float, float], n2: tuple[float, float, float]) -> floa
 
 
 class _Flipper:
-    """Faces, edge -> (face, face) map and the set of every edge ever present, updated per flip.
+    """The faces, edge -> (face, face) and the edges ever present, updated flip by flip.
 
-    An edge removed by a flip stays in ``taken``, so no later flip re-creates it: every flip
-    removes one edge of the input and adds one that the input did not have.
+    The input's edges are sorted key arrays (looked up by binary search, nothing built per
+    edge); the edges a flip touches go to small overlay dicts.  An edge removed by a flip
+    stays "present", so no later flip re-creates it: every flip removes one edge of the input
+    and adds one that the input did not have.
     """
 
     def __init__(self, v: NDArray[np.float64], f: NDArray[np.int64], pairs: EdgePairs) -> None:
         self.n = len(v)
-        self.points = v.tolist()
+        self.vertices = v
         self.faces = f.copy()
         lo, hi = np.minimum(pairs.a, pairs.b), np.maximum(pairs.a, pairs.b)
-        keys = (lo * self.n + hi).tolist()
-        both = zip(pairs.fa.tolist(), pairs.fb.tolist(), strict=True)
-        self.edge_faces = dict(zip(keys, both, strict=True))
-        self.taken = set(pairs.keys.tolist())
+        self._pair_keys = lo * self.n + hi  # increasing, as the rows of ``pairs``
+        self._pair_faces = np.stack([pairs.fa, pairs.fb], axis=1)
+        self._all_keys = pairs.keys
+        self._changed: dict[int, tuple[int, int] | None] = {}  # None: the edge was flipped
+        self._added: set[int] = set()
 
     def _key(self, p: int, q: int) -> int:
         return min(p, q) * self.n + max(p, q)
 
+    def _faces_of(self, key: int) -> tuple[int, int] | None:
+        """The two faces of an interior edge now (None: boundary, non-manifold or gone)."""
+        if key in self._changed:
+            return self._changed[key]
+        i = int(np.searchsorted(self._pair_keys, key))
+        if i < len(self._pair_keys) and self._pair_keys[i] == key:
+            fa, fb = self._pair_faces[i].tolist()
+            return fa, fb
+        return None
+
+    def _present(self, key: int) -> bool:
+        if key in self._added:
+            return True
+        i = int(np.searchsorted(self._all_keys, key))
+        return i < len(self._all_keys) and bool(self._all_keys[i] == key)
+
     def _replace(self, p: int, q: int, old: int, new: int) -> None:
         key = self._key(p, q)
-        both = self.edge_faces.get(key)
+        both = self._faces_of(key)
         if both is not None:  # boundary and non-manifold edges are not tracked
-            self.edge_faces[key] = (
+            self._changed[key] = (
                 new if both[0] == old else both[0],
                 new if both[1] == old else both[1],
             )
 
     def flip(self, p: int, q: int, cos_limit: float) -> tuple[int, int] | None:
         """Flip edge p-q if it is still flat and flippable; the new edge (sorted) or None."""
-        both = self.edge_faces.get(self._key(p, q))
+        both = self._faces_of(self._key(p, q))
         if both is None:
             return None
         fa, fb = both
@@ -212,20 +236,20 @@ class _Flipper:
             i = row.index(p)
         c = row[(i + 2) % 3]
         d = next(x for x in self.faces[fb].tolist() if x != p and x != q)
-        if c == d or self._key(c, d) in self.taken:
+        if c == d or self._present(self._key(c, d)):
             return None
-        pts = self.points
-        n1, n2 = _normal(pts[p], pts[q], pts[c]), _normal(pts[q], pts[p], pts[d])
-        m1, m2 = _normal(pts[p], pts[d], pts[c]), _normal(pts[d], pts[q], pts[c])
+        vp, vq, vc, vd = self.vertices[[p, q, c, d]].tolist()
+        n1, n2 = _normal(vp, vq, vc), _normal(vq, vp, vd)
+        m1, m2 = _normal(vp, vd, vc), _normal(vd, vq, vc)
         if _cos(n1, n2) <= cos_limit or min(_cos(m, o) for m in (m1, m2) for o in (n1, n2)) <= 0:
             return None
         self.faces[fa, (i + 1) % 3] = d  # (p, q, c) -> (p, d, c)
         self.faces[fb, self.faces[fb].tolist().index(p)] = c  # (q, p, d) -> (q, c, d)
-        del self.edge_faces[self._key(p, q)]
-        self.edge_faces[self._key(c, d)] = (fa, fb)
+        self._changed[self._key(p, q)] = None
+        self._changed[self._key(c, d)] = (fa, fb)
         self._replace(p, d, fb, fa)
         self._replace(q, c, fa, fb)
-        self.taken.add(self._key(c, d))
+        self._added.add(self._key(c, d))
         return min(c, d), max(c, d)
 
     def flip_in_order(
@@ -287,7 +311,7 @@ def flip_flat_edges(
     opts = check_options("flip_edges", count=count, max_dihedral=max_dihedral)
     v, f = check_mesh(vertices, faces)
     pairs = interior_pairs(len(v), f)
-    ok = _flippable(v, pairs, opts["max_dihedral"])
+    ok = _flippable(v, f, pairs, opts["max_dihedral"])
     a, b = pairs.a[ok], pairs.b[ok]
     candidates = np.stack([np.minimum(a, b), np.maximum(a, b)], axis=1)
     order = np.random.default_rng(seed).permutation(len(candidates))
@@ -339,7 +363,7 @@ def retriangulate(
     frac = check_options("retriangulate", fraction=fraction)["fraction"]
     v, f = check_mesh(vertices, faces)
     pairs = interior_pairs(len(v), f)
-    ok = np.flatnonzero(_flippable(v, pairs, QUAD_DIHEDRAL))
+    ok = np.flatnonzero(_flippable(v, f, pairs, QUAD_DIHEDRAL))
     rng = np.random.default_rng(seed)
     used = bytearray(len(f))
     quads = []
