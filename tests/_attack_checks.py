@@ -24,6 +24,9 @@ RANDOM = [
     "reorder",
     "noise",
     "crop",
+    "flip_edges",
+    "retriangulate",
+    "split_seams",
     "gim_salt_pepper",
     "gim_noise",
     "gim_crop",
@@ -43,6 +46,9 @@ SAME_FACES = [
     "taubin",
 ]
 SAME_FACES += ["quantize", *GIM]
+#: Attacks that move no vertex: the order, the format or the connectivity changes, not the shape.
+NO_MOVE = ["reorder", "float32", "round_trip", "flip_edges", "retriangulate", "merge_load"]
+NO_MOVE += ["weld_stl"]
 
 
 def _oriented_faces(v: np.ndarray, f: np.ndarray, positions: np.ndarray) -> np.ndarray:

@@ -18,6 +18,10 @@ made):
     ``laplacian``, ``meshlab_laplacian``, ``taubin``.
 :mod:`~meshwm.attacks.tessellation`
     ``simplify``, ``subdivide_midpoint``, ``subdivide_loop``.
+:mod:`~meshwm.attacks.connectivity`
+    ``flip_edges``, ``retriangulate`` (flips of nearly flat edges; no vertex moves).
+:mod:`~meshwm.attacks.seams`
+    ``split_seams``, ``merge_load``, ``weld_stl`` (vertices split along seams or merged).
 :mod:`~meshwm.attacks.image`
     The paper's section 5 attacks (``gim_`` prefix), on the three N×N coordinate matrices of
     the geometry image with MATLAB's kernels; the mesh must be one meshwm wrote.

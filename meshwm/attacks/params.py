@@ -222,6 +222,36 @@ ATTACK_PARAMS: dict[str, tuple[AttackParam, ...]] = {
     ),
     "subdivide_midpoint": (AttackParam("iterations", int, 1, _ITERATIONS, low=1, high=3),),
     "subdivide_loop": (AttackParam("iterations", int, 1, _ITERATIONS, low=1, high=3),),
+    "flip_edges": (
+        AttackParam("count", int, 10, "number of edges flipped (fewer if fewer qualify)", low=0),
+        AttackParam(
+            "max_dihedral",
+            float,
+            10.0,
+            "largest angle between the two faces' normals of a flipped edge, degrees",
+            low=0,
+            high=180,
+            open_low=True,
+            open_high=True,
+        ),
+    ),
+    "retriangulate": (
+        AttackParam(
+            "fraction",
+            float,
+            0.2,
+            "fraction of the flat quads (face pairs, dihedral < 10°) given the other diagonal",
+            low=0,
+            high=1,
+            open_low=True,
+        ),
+    ),
+    "split_seams": (
+        AttackParam("paths", int, 3, "number of seams cut (vertex paths duplicated)", low=1),
+        AttackParam("length", int, 20, "edges per seam", low=2),
+    ),
+    "merge_load": (),
+    "weld_stl": (),
     "gim_gaussian": (
         AttackParam("hsize", int, 3, "kernel side, samples", low=3, high=31, odd=True),
         AttackParam(

@@ -22,6 +22,8 @@ _TRANSFORMS = "meshwm.attacks.transforms"
 _SMOOTHING = "meshwm.attacks.smoothing"
 _TESSELLATION = "meshwm.attacks.tessellation"
 _IMAGE = "meshwm.attacks.image"
+_CONNECTIVITY = "meshwm.attacks.connectivity"
+_SEAMS = "meshwm.attacks.seams"
 
 #: Attack name -> the module that defines the function of that name.
 _MODULES: dict[str, str] = {
@@ -41,6 +43,11 @@ _MODULES: dict[str, str] = {
     "simplify": _TESSELLATION,
     "subdivide_midpoint": _TESSELLATION,
     "subdivide_loop": _TESSELLATION,
+    "flip_edges": _CONNECTIVITY,
+    "retriangulate": _CONNECTIVITY,
+    "split_seams": _SEAMS,
+    "merge_load": _SEAMS,
+    "weld_stl": _SEAMS,
     "gim_gaussian": _IMAGE,
     "gim_log": _IMAGE,
     "gim_laplacian": _IMAGE,
