@@ -38,12 +38,12 @@ def test_embed_verify_round_trip_through_the_top_level(spot_mesh):
     v, f = spot_mesh
     params = WatermarkParams(size=128)
     ident = bytes.fromhex("c0ffee42c0ffee42")
-    marked = meshwm.embed(v, f, key="k", ident=ident, params=params, distances=False)
+    marked = meshwm.embed(v, f, key="k", ident=ident, params=params, distances=False, grid=True)
     verdict = meshwm.verify(marked.vertices, marked.faces, key="k", ident=ident, params=params)
     assert isinstance(verdict, Verdict) and verdict.detected
     assert verdict.threshold == pytest.approx(1e-6 / verdict.hypotheses)
     assert not meshwm.verify(marked.vertices, marked.faces, key="k2", ident=ident).detected
-    logo = meshwm.embed(v, f, key="k", params=params, distances=False)
+    logo = meshwm.embed(v, f, key="k", params=params, distances=False, grid=True)
     assert meshwm.verify(logo.vertices, logo.faces, key="k", params=params).detected
     with pytest.raises(ValueError, match="not both"):
         meshwm.verify(v, f, key="k", mark=np.ones((4, 4)), ident=ident)

@@ -338,7 +338,7 @@ ATTACK_CASES = [
 )
 def test_mesh_mark_survives_lossless_attacks(marked_spot, attack, options):
     v, f = apply_attack(attack, marked_spot.vertices, marked_spot.faces, seed=3, **options)
-    found = extract(v, f, key=KEY, expected=MARK, params=P128, grid=True)
+    found = extract(v, f, key=KEY, expected=MARK, params=P128)
     assert found.report["ber"] == 0.0
     assert_array_equal(found.mark, MARK)
 

@@ -29,6 +29,7 @@ LOGO = ASSETS / "mark32.png"
 KEY = "batch key"
 IDENT = "0x0123456789abcdef"
 OPTS = ["--key", KEY, "--size", "128", "--no-distance"]
+EMBED_OPTS = [*OPTS, "--grid"]
 
 
 @pytest.fixture(scope="module")
@@ -36,8 +37,8 @@ def library(tmp_path_factory):
     """A small asset library: marked with the logo, marked with an id, unmarked, corrupt."""
     root = tmp_path_factory.mktemp("library")
     (root / "sub").mkdir()
-    assert main(["embed", str(SPOT), "-o", str(root / "logo.ply"), *OPTS]) == 0
-    assert main(["embed", str(SPOT), "-o", str(root / "sub" / "id.obj"), *OPTS, "--id", IDENT]) == 0
+    assert main(["embed", str(SPOT), "-o", str(root / "logo.ply"), *EMBED_OPTS]) == 0
+    assert main(["embed", str(SPOT), "-o", str(root / "sub" / "id.obj"), *EMBED_OPTS, "--id", IDENT]) == 0
     shutil.copy(SPOT, root / "sub" / "plain.ply")
     (root / "sub" / "broken.stl").write_bytes(b"solid x\nfacet normal 0 0")
     return root
@@ -64,7 +65,7 @@ def test_extract_needs_an_output_or_json(library, capsys):
 
 def test_embed_id_and_mark_exclude_each_other(tmp_path, capsys):
     out = tmp_path / "x.ply"
-    argv = ["embed", str(SPOT), "-o", str(out), *OPTS, "--id", "ab", "--mark", str(LOGO)]
+    argv = ["embed", str(SPOT), "-o", str(out), *EMBED_OPTS, "--id", "ab", "--mark", str(LOGO)]
     assert main(argv) == 2
     assert "exclude" in capsys.readouterr().err
     assert not out.exists()
@@ -72,7 +73,7 @@ def test_embed_id_and_mark_exclude_each_other(tmp_path, capsys):
 
 @pytest.mark.parametrize("bad", ["", "this id is far too long", "0x" + "f" * 17])
 def test_embed_refuses_a_bad_id(bad, tmp_path, capsys):
-    assert main(["embed", str(SPOT), "-o", str(tmp_path / "x.ply"), *OPTS, "--id", bad]) == 2
+    assert main(["embed", str(SPOT), "-o", str(tmp_path / "x.ply"), *EMBED_OPTS, "--id", bad]) == 2
     err = capsys.readouterr().err
     assert err.startswith("meshwm: error:") and len(err.strip().splitlines()) == 1
 

@@ -1,0 +1,103 @@
+"""Tests for :mod:`meshwm.watermark.keep`: the user's own mesh marked, the id read back blind."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from meshwm.attacks import apply_attack
+from meshwm.errors import CapacityError
+from meshwm.gim.surface import sample_surface, surface_of
+from meshwm.metrics import bounding_box_diagonal
+from meshwm.watermark import Decoder, embed, verify
+
+KEY = "a studio key"
+IDENT = bytes.fromhex("0123456789abcdef")
+
+
+@pytest.fixture(scope="module")
+def kitten_marked(kitten_mesh):
+    v, f = kitten_mesh
+    return v, f, embed(v, f, key=KEY, ident=IDENT, distances=False)
+
+
+def test_the_input_mesh_is_kept_and_only_positions_move(kitten_marked):
+    v, f, marked = kitten_marked
+    assert marked.vertices.shape == v.shape
+    np.testing.assert_array_equal(marked.faces, f)
+    moved = np.linalg.norm(marked.vertices - v, axis=1)
+    diag = bounding_box_diagonal(v)
+    assert 0 < moved.max() < 0.005 * diag  # a mark, not a remesh
+    assert np.median(moved) > 0  # spread over the mesh, not a few vertices
+    assert marked.report["mode"] == "kept" and marked.report["n"] in (128, 256)
+
+
+def test_the_id_reads_back_blind_and_a_wrong_key_does_not(kitten_marked):
+    v, f, marked = kitten_marked
+    got = Decoder(marked.vertices, f).extract_id(key=KEY, expected=IDENT)
+    assert got.id == IDENT.hex() and got.report["ber"] == 0
+    assert got.report["reader"] == "surface"
+    assert got.report["hypotheses"] > 2  # both sizes and the gain search are counted
+    assert verify(marked.vertices, f, key=KEY, ident=IDENT).detected
+    assert not verify(marked.vertices, f, key="another key", ident=IDENT).detected
+
+
+def test_the_unmarked_mesh_is_not_detected(kitten_mesh):
+    v, f = kitten_mesh
+    assert not verify(v, f, key=KEY, ident=IDENT).detected
+
+
+@pytest.mark.parametrize(
+    ("attack", "options"),
+    [
+        ("reorder", {}),
+        ("similarity", {}),
+        ("round_trip", {"suffix": ".stl"}),
+        ("round_trip", {"suffix": ".obj"}),
+        ("float32", {}),
+        ("quantize", {"bits": 10}),
+        ("noise", {"amplitude": 0.001}),
+    ],
+)
+def test_the_id_survives(kitten_marked, attack, options):
+    _, f, marked = kitten_marked
+    av, af = apply_attack(attack, marked.vertices, f, seed=3, **options)
+    assert Decoder(av, af).extract_id(key=KEY).id == IDENT.hex()
+
+
+def test_the_image_is_the_same_under_random_similarities(kitten_mesh):
+    v, f = kitten_mesh
+    base = sample_surface(surface_of(v, f), size=128).samples
+    diag = bounding_box_diagonal(v)
+    rng = np.random.default_rng(5)
+    for _ in range(20):
+        q, _ = np.linalg.qr(rng.normal(size=(3, 3)))
+        q *= np.sign(np.linalg.det(q))
+        scale = 10.0 ** rng.uniform(-2, 2)
+        shift = rng.uniform(-100, 100, 3)
+        moved = scale * v @ q.T + shift
+        again = sample_surface(surface_of(moved, f[rng.permutation(len(f))]), size=128).samples
+        back = ((again - shift) / scale) @ q
+        np.testing.assert_array_equal(np.isnan(back), np.isnan(base))
+        assert np.nanmax(np.abs(back - base)) < 1e-9 * diag
+
+
+def test_a_payload_the_mesh_cannot_carry_is_refused():
+    import trimesh
+
+    sphere = trimesh.creation.icosphere(subdivisions=2)  # 162 vertices
+    with pytest.raises(CapacityError, match="payload"):
+        embed(np.asarray(sphere.vertices), np.asarray(sphere.faces), key=KEY, distances=False)
+
+
+def test_grid_mode_is_the_papers_output(kitten_mesh):
+    from meshwm.params import WatermarkParams
+
+    v, f = kitten_mesh
+    marked = embed(
+        v, f, key=KEY, ident=IDENT, distances=False, grid=True, params=WatermarkParams(size=64)
+    )
+    assert marked.report["mode"] == "grid" and len(marked.vertices) != len(v)
+    assert Decoder(marked.vertices, marked.faces).extract_id(key=KEY).report["reader"] == (
+        "connectivity"
+    )
