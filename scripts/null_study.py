@@ -202,7 +202,9 @@ def run_mesh(task: dict[str, Any]) -> dict[str, Any]:
     # Marked copies read with other keys (the right key must find them, as a sanity check).
     ident = study_id(seed, "marked", name)
     marked = embed(v, f, key=RIGHT_KEY, geometry_image=gi, distances=False, grid=True)
-    marked_id = embed(v, f, key=RIGHT_KEY, geometry_image=gi, distances=False, ident=ident, grid=True)
+    marked_id = embed(
+        v, f, key=RIGHT_KEY, geometry_image=gi, distances=False, ident=ident, grid=True
+    )
     rm = Decoder(marked.vertices, marked.faces)
     ri = Decoder(marked_id.vertices, marked_id.faces)
     out["right_key_on_marked"] = {

@@ -112,9 +112,7 @@ def _locate(positions: NDArray[np.float64], points: NDArray[np.float64]) -> NDAr
     return found.astype(np.int64)
 
 
-def surface_of(
-    vertices: NDArray, faces: NDArray, *, max_faces: int = DEFAULT_MAX_FACES
-) -> Surface:
+def surface_of(vertices: NDArray, faces: NDArray, *, max_faces: int = DEFAULT_MAX_FACES) -> Surface:
     """Clean, weld and map a mesh (see the module notes).
 
     Parameters

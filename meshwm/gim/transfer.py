@@ -20,9 +20,9 @@ from meshwm.gim.sampling import Sampling
 
 __all__ = [
     "DEFAULT_PASSES",
-    "Transfer",
     "DEFAULT_SMOOTHNESS",
     "ENERGIES",
+    "Transfer",
     "transfer_changes",
     "uniform_laplacian",
 ]
@@ -211,7 +211,7 @@ def transfer_changes(
     """
     v, f, c = _check_inputs(vertices, faces, sampling, changes)
     solver = Transfer(f, sampling, n_vertices=len(v), smoothness=smoothness, energy=energy)
-    return solver.apply(c.reshape(sampling.covered.shape + (3,)), passes=passes)
+    return solver.apply(c.reshape((*sampling.covered.shape, 3)), passes=passes)
 
 
 class Transfer:

@@ -7,8 +7,8 @@ which the detection decision counts.  The decoder of every profile takes its out
 :data:`READERS`; the first that finds an image wins.
 
 To add a reader: one module with a function ``read_x(vertices, faces, *, max_faces) ->
-SampledImage`` (or a tuple of them, one per hypothesis it offers) that raises :class:`meshwm.errors.GridError` when it finds nothing, and one
-entry in :data:`READERS`.
+SampledImage`` (or a tuple of them, one per hypothesis it offers) that raises
+:class:`meshwm.errors.GridError` when it finds nothing, and one entry in :data:`READERS`.
 """
 
 from __future__ import annotations
@@ -18,7 +18,6 @@ from typing import TYPE_CHECKING
 
 from meshwm._validate import DEFAULT_MAX_FACES
 from meshwm.errors import GridError
-
 from meshwm.readers.base import SampledImage
 
 if TYPE_CHECKING:  # pragma: no cover

@@ -110,9 +110,7 @@ def _mark_at(
     profile = get_profile(params.profile)
     positions = surface.positions
     faces = surface.faces
-    transfer = Transfer(
-        faces, Sampling(image.matrix, image.covered), n_vertices=len(positions)
-    )
+    transfer = Transfer(faces, Sampling(image.matrix, image.covered), n_vertices=len(positions))
     target = float(getattr(params.options, "distortion", 0.0)) or None
     options = params.options
     cover, _ = fill_missing(image.samples)

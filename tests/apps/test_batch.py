@@ -38,7 +38,10 @@ def library(tmp_path_factory):
     root = tmp_path_factory.mktemp("library")
     (root / "sub").mkdir()
     assert main(["embed", str(SPOT), "-o", str(root / "logo.ply"), *EMBED_OPTS]) == 0
-    assert main(["embed", str(SPOT), "-o", str(root / "sub" / "id.obj"), *EMBED_OPTS, "--id", IDENT]) == 0
+    assert (
+        main(["embed", str(SPOT), "-o", str(root / "sub" / "id.obj"), *EMBED_OPTS, "--id", IDENT])
+        == 0
+    )
     shutil.copy(SPOT, root / "sub" / "plain.ply")
     (root / "sub" / "broken.stl").write_bytes(b"solid x\nfacet normal 0 0")
     return root

@@ -33,7 +33,7 @@ def test_the_input_mesh_is_kept_and_only_positions_move(kitten_marked):
 
 
 def test_the_id_reads_back_blind_and_a_wrong_key_does_not(kitten_marked):
-    v, f, marked = kitten_marked
+    _, f, marked = kitten_marked
     got = Decoder(marked.vertices, f).extract_id(key=KEY, expected=IDENT)
     assert got.id == IDENT.hex() and got.report["ber"] == 0
     assert got.report["reader"] == "surface"

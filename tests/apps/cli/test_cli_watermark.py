@@ -221,7 +221,9 @@ def test_marked_obj_and_stl_read_back_exactly(suffix, files, tmp_path, capsys):
 
 def test_embed_json_report_with_distances(tmp_path, capsys):
     out = tmp_path / "marked.ply"
-    code = main(["embed", str(SPOT), "-o", str(out), "--key", KEY, "--size", "128", "--json", "--grid"])
+    code = main(
+        ["embed", str(SPOT), "-o", str(out), "--key", KEY, "--size", "128", "--json", "--grid"]
+    )
     assert code == 0
     report = _json(capsys)
     for name in ("psnr", "mrms_rel", "hausdorff_rel", "rms_rel", "seconds"):
