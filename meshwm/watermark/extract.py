@@ -16,6 +16,7 @@ from meshwm.message.scramble import arnold_scramble, arnold_unscramble
 from meshwm.metrics import bit_error_rate, correlation2
 from meshwm.params import WatermarkParams
 from meshwm.profiles import get_profile
+from meshwm.profiles.base import Decoded
 from meshwm.readers import read_all
 from meshwm.readers.base import SampledImage
 from meshwm.watermark.embed import check_gim, check_mark
@@ -89,6 +90,14 @@ def extract_gim(
     return Extracted(mark, found.bits, found.confidence, found.report)
 
 
+class _Try(NamedTuple):
+    """One image a reader offered, decoded."""
+
+    strength: float
+    image: SampledImage
+    found: Decoded
+
+
 class Decoder:
     """A received mesh, read once, to decode with one key or many.
 
@@ -146,6 +155,23 @@ class Decoder:
         self._profile = get_profile(params.profile)
         self._prepared = [self._profile.prepare(im, options=params.options) for im in images]
 
+    def _decode_all(self, n_bits: int, *, key: str | bytes) -> tuple[list[_Try], int]:
+        """Every image decoded, strongest first, and the hypotheses they took together."""
+        hypotheses = 0
+        tried = []
+        for image, prepared in zip(self.images, self._prepared, strict=True):
+            found = self._profile.decode(prepared, n_bits, key=key)
+            hypotheses += image.hypotheses * int(found.report.get("hypotheses", 1))
+            tried.append(_Try(float(np.mean(np.abs(found.confidence))), image, found))
+        tried.sort(key=lambda t: -t.strength)
+        return tried, hypotheses
+
+    @staticmethod
+    def _result(chosen: _Try, hypotheses: int) -> tuple[NDArray, NDArray, dict[str, Any]]:
+        found, image = chosen.found, chosen.image
+        report = {**found.report, "n": image.n, "reader": image.reader, "hypotheses": hypotheses}
+        return found.bits, found.confidence, report
+
     def decode(
         self, n_bits: int, *, key: str | bytes
     ) -> tuple[NDArray[np.uint8], NDArray[np.float64], dict[str, Any]]:
@@ -155,15 +181,8 @@ class Decoder:
         kept (its ``n`` and ``reader`` are reported); ``hypotheses`` is the sum over the images
         of the reader's count times the profile's (gains, candidates).
         """
-        hypotheses = 0
-        tried = []
-        for image, prepared in zip(self.images, self._prepared, strict=True):
-            found = self._profile.decode(prepared, n_bits, key=key)
-            hypotheses += image.hypotheses * int(found.report.get("hypotheses", 1))
-            tried.append((float(np.mean(np.abs(found.confidence))), image, found))
-        _, image, found = max(tried, key=lambda t: t[0])
-        report = {**found.report, "n": image.n, "reader": image.reader, "hypotheses": hypotheses}
-        return found.bits, found.confidence, report
+        tried, hypotheses = self._decode_all(n_bits, key=key)
+        return self._result(tried[0], hypotheses)
 
     def extract(
         self, *, key: str | bytes, mark_size: int = 32, expected: NDArray | None = None
@@ -191,7 +210,11 @@ class Decoder:
     def extract_id(self, *, key: str | bytes, expected: bytes | None = None) -> ExtractedId:
         """The id, as :func:`extract_id` describes."""
         t0 = time.perf_counter()
-        bits, confidence, found = self.decode(PAYLOAD_BITS, key=key)
+        tried, hypotheses = self._decode_all(PAYLOAD_BITS, key=key)
+        # The strongest image whose code bits decode to a valid id (CRC-32 checked), else the
+        # strongest: every image is a hypothesis counted for the false-positive rate either way.
+        valid = [t for t in tried if decode_id(t.found.bits, t.found.confidence) is not None]
+        bits, confidence, found = self._result((valid or tried)[0], hypotheses)
         ident = decode_id(bits, confidence)
         report = {"profile": self.params.profile, **found, "id": ident, "bits": PAYLOAD_BITS}
         if expected is not None:
