@@ -70,6 +70,9 @@ class Profile(Protocol):
 
     name: str
     options_type: type
+    #: An upper bound on the ``hypotheses`` :meth:`decode` reports for one image: a decoder
+    #: that stops before trying every image a reader offered counts the rest at this.
+    max_hypotheses: int
 
     def embed(
         self, gim: NDArray[np.float64], bits: NDArray[np.uint8], *, key: str | bytes, options: Any

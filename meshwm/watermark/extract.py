@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import time
+from collections.abc import Callable
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -90,6 +91,10 @@ def extract_gim(
     return Extracted(mark, found.bits, found.confidence, found.report)
 
 
+def _valid_id(found: Decoded) -> bool:
+    return decode_id(found.bits, found.confidence) is not None
+
+
 class _Try(NamedTuple):
     """One image a reader offered, decoded."""
 
@@ -155,14 +160,25 @@ class Decoder:
         self._profile = get_profile(params.profile)
         self._prepared = [self._profile.prepare(im, options=params.options) for im in images]
 
-    def _decode_all(self, n_bits: int, *, key: str | bytes) -> tuple[list[_Try], int]:
-        """Every image decoded, strongest first, and the hypotheses they took together."""
+    def _decode_all(
+        self, n_bits: int, *, key: str | bytes, enough: Callable[[Decoded], bool] | None = None
+    ) -> tuple[list[_Try], int]:
+        """The images decoded in the reader's order, strongest first, and their hypotheses.
+
+        With ``enough``, decoding stops at the first image it accepts; each image not decoded
+        then counts the profile's ``max_hypotheses``, so stopping early never makes the
+        false-positive threshold laxer than trying them all.
+        """
         hypotheses = 0
         tried = []
-        for image, prepared in zip(self.images, self._prepared, strict=True):
+        for k, (image, prepared) in enumerate(zip(self.images, self._prepared, strict=True)):
             found = self._profile.decode(prepared, n_bits, key=key)
             hypotheses += image.hypotheses * int(found.report.get("hypotheses", 1))
             tried.append(_Try(float(np.mean(np.abs(found.confidence))), image, found))
+            if enough is not None and enough(found):
+                rest = self.images[k + 1 :]
+                hypotheses += sum(im.hypotheses for im in rest) * self._profile.max_hypotheses
+                break
         tried.sort(key=lambda t: -t.strength)
         return tried, hypotheses
 
@@ -210,7 +226,7 @@ class Decoder:
     def extract_id(self, *, key: str | bytes, expected: bytes | None = None) -> ExtractedId:
         """The id, as :func:`extract_id` describes."""
         t0 = time.perf_counter()
-        tried, hypotheses = self._decode_all(PAYLOAD_BITS, key=key)
+        tried, hypotheses = self._decode_all(PAYLOAD_BITS, key=key, enough=_valid_id)
         # The strongest image whose code bits decode to a valid id (CRC-32 checked), else the
         # strongest: every image is a hypothesis counted for the false-positive rate either way.
         valid = [t for t in tried if decode_id(t.found.bits, t.found.confidence) is not None]

@@ -38,8 +38,14 @@ __all__ = ["KEEP_PASSES", "KeptMark", "embed_kept", "normal_rms"]
 
 #: Passes of (sample, quantise, transfer) after the first.
 KEEP_PASSES = 3
-#: Calibration rounds of the step against the distortion measured on the input's vertices.
-_CALIBRATION_ROUNDS = 2
+#: Calibration rounds of the step against the distortion measured on the input's vertices
+#: (dithered quantisation moves a coefficient by a uniform fraction of its step, so the
+#: distortion is nearly proportional to the step: one correction lands within a few percent).
+_CALIBRATION_ROUNDS = 1
+#: The transfer's smoothness energy (:data:`meshwm.gim.transfer.ENERGIES`).
+KEEP_ENERGY = "dirichlet"
+#: Least-squares refinement passes of each transfer (the outer passes refine too).
+_TRANSFER_PASSES = 1
 
 
 class KeptMark(NamedTuple):
@@ -110,7 +116,8 @@ def _mark_at(
     profile = get_profile(params.profile)
     positions = surface.positions
     faces = surface.faces
-    transfer = Transfer(faces, Sampling(image.matrix, image.covered), n_vertices=len(positions))
+    sampling = Sampling(image.matrix, image.covered)
+    transfer = Transfer(faces, sampling, n_vertices=len(positions), energy=KEEP_ENERGY)
     target = float(getattr(params.options, "distortion", 0.0)) or None
     options = params.options
     cover, _ = fill_missing(image.samples)
@@ -126,7 +133,8 @@ def _mark_at(
             now[~image.covered] = cover[~image.covered]
             emb = profile.embed(now, bits, key=key, options=opts)
             rep = emb.report
-            d = d + transfer.apply(np.where(image.covered[..., None], emb.changes, 0.0))
+            change = np.where(image.covered[..., None], emb.changes, 0.0)
+            d = d + transfer.apply(change, passes=_TRANSFER_PASSES)
         return d, rep
 
     if step is not None and target is not None and hasattr(options, "tangential_step"):
@@ -191,26 +199,19 @@ def embed_kept(
         A payload no size carries (the message names the largest that fits).
     """
     surface = surface_of(vertices, faces, max_faces=max_faces)
-    attempts: list[tuple[int, _Attempt]] = []
     tried: dict[str, Any] = {}
-    for n in sizes:
+    worst = 1.0
+    for n in _size_order(sizes, len(bits)):
         image = sample_surface(surface, size=n)
         try:
             attempt = _mark_at(surface, image, bits, key=key, params=params)
         except CapacityError as exc:
             tried[str(n)] = str(exc)
             continue
-        tried[str(n)] = {"ber": attempt.report["ber"], "confidence": attempt.report["confidence"]}
-        attempts.append((n, attempt))
-    if not attempts:
-        raise CapacityError(f"the mesh carries no payload of {len(bits)} bits at any size")
-    attempts.sort(key=lambda t: -t[1].score)
-    worst = 1.0
-    for n, attempt in attempts:
         out = (surface.positions + attempt.displacement)[surface.inverse]
         # Read back as a blind reader will: the map re-derived from the marked mesh itself.
-        ber, strength = _read_back(out, faces, bits, key=key, params=params, max_faces=max_faces)
-        tried[str(n)].update({"ber_read_back": ber, "confidence_read_back": strength})
+        ber, strength = _read_back(out, faces, bits, n, key=key, params=params, max_faces=max_faces)
+        tried[str(n)] = {"ber": ber, "confidence": strength}
         if ber == 0:
             report = {**attempt.report, "n": n, "sizes_tried": tried, **_clean_counts(surface)}
             return KeptMark(out, report)
@@ -221,26 +222,34 @@ def embed_kept(
     )
 
 
+def _size_order(sizes: tuple[int, ...], n_bits: int) -> list[int]:
+    """The sizes to try, first the one the payload is likeliest to fit.
+
+    At level 3 an N×N image has 9 (N/8)² slots; a mesh carries the change of a coarse image
+    best (fewer, larger atoms per vertex), so the smallest size with at least 8 slots per bit
+    comes first, then the others from small to large.
+    """
+    ordered = sorted(sizes)
+    first = next((n for n in ordered if 9 * (n // 8) ** 2 >= 8 * n_bits), ordered[-1])
+    return [first, *(n for n in ordered if n != first)]
+
+
 def _read_back(
     vertices: NDArray[np.float64],
     faces: NDArray,
     bits: NDArray[np.uint8],
+    n: int,
     *,
     key: str | bytes,
     params: WatermarkParams,
     max_faces: int,
 ) -> tuple[float, float]:
-    """BER and mean |confidence| of the best size, read from the marked mesh as received."""
-    from meshwm.readers.surface import read_surface
-
+    """BER and mean |confidence| at size ``n``, read from the marked mesh as received."""
     profile = get_profile(params.profile)
-    best = (1.0, -1.0)
-    for image in read_surface(vertices, faces, max_faces=max_faces):
-        found = profile.decode(profile.prepare(image, options=params.options), len(bits), key=key)
-        strength = float(np.mean(np.abs(found.confidence)))
-        if strength > best[1]:
-            best = (float(np.mean(found.bits != bits)), strength)
-    return best
+    image = sample_surface(surface_of(vertices, faces, max_faces=max_faces), size=n)
+    received = SampledImage(image.samples, 1, "surface")
+    found = profile.decode(profile.prepare(received, options=params.options), len(bits), key=key)
+    return float(np.mean(found.bits != bits)), float(np.mean(np.abs(found.confidence)))
 
 
 def _clean_counts(surface: Surface) -> dict[str, Any]:

@@ -21,6 +21,8 @@ class PaperProfile:
 
     name = "paper"
     options_type = PaperOptions
+    #: The most hypotheses :meth:`decode` takes on one image (it searches nothing).
+    max_hypotheses = 1
 
     def embed(
         self,

@@ -30,6 +30,8 @@ __all__ = ["GAINS", "PreparedGim", "decode_robust", "extract_gim_robust", "prepa
 #: Gains the decoder tries: a coarse ladder over [1/16, 16], then a fine search around the best.
 GAINS = 2.0 ** (np.arange(-96, 97) / 24.0)
 _FINE = np.linspace(0.96, 1.04, 41)
+#: Gains one decode tries (the coarse search, then the fine one around the best).
+GAINS_TRIED = len(GAINS) + len(_FINE)
 _MAX_RELIABILITY = 20.0
 
 
@@ -153,7 +155,7 @@ def decode_robust(prepared: PreparedGim, n_bits: int, *, key: str | bytes) -> Ro
     report = {
         "profile": "robust",
         "gain": g,
-        "gains_tried": len(GAINS) + len(_FINE),
+        "gains_tried": GAINS_TRIED,
         "missing": prepared.missing,
     }
     return RobustResult(None, bits, confidence, report)

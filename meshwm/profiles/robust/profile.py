@@ -10,7 +10,7 @@ from numpy.typing import NDArray
 from meshwm.profiles.base import Decoded, Embedding
 from meshwm.profiles.robust.embed import embed_gim_robust
 from meshwm.profiles.robust.options import RobustOptions
-from meshwm.profiles.robust.search import Candidates
+from meshwm.profiles.robust.search import MAX_HYPOTHESES, Candidates
 from meshwm.readers.base import SampledImage
 
 __all__ = ["PROFILE", "RobustProfile"]
@@ -21,6 +21,8 @@ class RobustProfile:
 
     name = "robust"
     options_type = RobustOptions
+    #: The most hypotheses :meth:`decode` takes on one image.
+    max_hypotheses = MAX_HYPOTHESES
 
     def embed(
         self,

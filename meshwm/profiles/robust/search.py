@@ -14,18 +14,27 @@ from __future__ import annotations
 
 import numpy as np
 
-from meshwm.profiles.robust.decode import PreparedGim, decode_robust, prepare_gim_robust
+from meshwm.profiles.robust.decode import (
+    GAINS_TRIED,
+    PreparedGim,
+    decode_robust,
+    prepare_gim_robust,
+)
 from meshwm.profiles.robust.options import RobustOptions
 from meshwm.profiles.robust.slots import RobustResult
 from meshwm.readers.base import SampledImage
 from meshwm.signal.fill import find_spikes
 
-__all__ = ["UNSMOOTH_BELOW", "Candidates"]
+__all__ = ["MAX_HYPOTHESES", "UNSMOOTH_BELOW", "Candidates"]
 
 #: Below this mean |confidence| of the image as received the other candidates are tried (an
 #: unattacked mesh reads about 0.86: distortion compensation leaves up to 0.15 of a step of
 #: self-noise).
 UNSMOOTH_BELOW = 0.75
+#: The most hypotheses one image can take: every gain on the image as received, despiked and
+#: with each of the readers' smoothing steps undone (12 of them,
+#: :data:`meshwm.readers.connectivity.UNSMOOTH_STEPS`).
+MAX_HYPOTHESES = GAINS_TRIED * (2 + 12)
 
 
 def _strength(res: RobustResult) -> float:
