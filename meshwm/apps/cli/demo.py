@@ -1,4 +1,4 @@
-"""``meshwm demo``: embed the logo into a bundled mesh, attack it, extract, and show the marks."""
+"""``meshwm demo``: mark a bundled mesh with an id (its mesh kept), attack it, read it back."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ from meshwm.apps.cli.output import EXIT_OK
 __all__ = ["HELP", "NAME", "add_parser", "run"]
 
 NAME = "demo"
-HELP = "embed the logo into a bundled mesh, attack it, extract, and show the marks"
+HELP = "mark a bundled mesh with an id (its mesh kept), attack it and read the id back"
 
 
 def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
@@ -19,8 +19,9 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
         NAME,
         help=HELP,
         description=(
-            "Embeds the default logo into the bundled spot mesh (N=256), runs a few attacks, "
-            "extracts, prints a table and writes the meshes and a PNG of the marks."
+            "Marks the bundled spot mesh with a 64-bit id, keeping its vertices and faces, runs "
+            "the attacks a pipeline does to a file, reads the id back blind from each, prints a "
+            "table and writes the meshes and a picture of where the mark moved the surface."
         ),
     )
     parser.add_argument(

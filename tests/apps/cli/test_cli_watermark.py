@@ -524,9 +524,13 @@ def test_demo(tmp_path, capsys):
     assert captured.err == ""
     assert "wrong key" in captured.out
     assert "STL round trip" in captured.out
+    assert "5ca1ab1e0ddba11f" in captured.out and "same vertices and faces" in captured.out
+    table = captured.out.split("detected")[-1].splitlines()
+    rows = [line for line in table if line.strip() and not line.startswith("where")]
+    assert all(line.endswith("yes") for line in rows[:-1]) and rows[-1].endswith("no"), rows
     assert (out / "spot_marked.ply").is_file()
-    with Image.open(out / "marks.png") as image:
+    with Image.open(out / "compare.png") as image:
         image.verify()
-    with Image.open(out / "marks.png") as image:
+    with Image.open(out / "compare.png") as image:
         assert image.format == "PNG"
         assert image.width > image.height > 0
