@@ -56,6 +56,7 @@ from meshwm.gim.cut import (
     path_edges,
 )
 from meshwm.gim.parameterize import flat_faces, grid_step, signed_uv_area, stretch_parameterize
+from meshwm.gim.pose import canonical_pose
 from meshwm.gim.sample import sample_geometry_image
 from meshwm.mesh.clean import clean_mesh, unique_edges
 
@@ -377,7 +378,9 @@ def mesh_to_geometry_image(
     n = check_square_pow2(size, name="size")
     t_start = time.perf_counter()
     clean = clean_mesh(vertices, faces, max_faces=max_faces)
-    surface = _surface(clean.vertices, clean.faces)
+    # Remesh in a canonical pose, so that near-ties cannot flip under a similarity's rounding.
+    pose = canonical_pose(clean.vertices, clean.faces)
+    surface = _surface(pose.forward(clean.vertices), clean.faces)
     best, last = _cut_rounds(
         surface,
         n,
@@ -387,6 +390,7 @@ def mesh_to_geometry_image(
         accept_uniformity=accept_uniformity,
     )
     gim, weld = sample_geometry_image(best.disk.vertices, best.disk.faces, best.uv, best.chains, n)
+    gim = pose.inverse(gim.reshape(-1, 3)).reshape(gim.shape)
     report = dict(clean.report)
     report.update(_report(surface, best, last, weld, n))
     report["seconds_geometry_image"] = time.perf_counter() - t_start
