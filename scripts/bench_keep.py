@@ -1,0 +1,88 @@
+"""Cost of marking the user's own mesh against the floor: issue 13's speed target.
+
+For each mesh, as whole-process-free timings in one process (median of ``--repeat`` runs):
+
+- **floor**: reading the file (``meshwm.read_mesh``) plus one harmonic solve on the mesh
+  (``igl.harmonic`` with four fixed vertices, libigl's sparse Cholesky), the least any blind
+  map of the surface costs;
+- **embed**: ``meshwm.embed(..., ident=...)`` with the mesh kept, without the MeshLab distances
+  (a report, not part of marking), plus the read;
+- **extract**: reading the marked file and ``Decoder(...).extract_id(...)``.
+
+Targets: embed ≤ 3× and extract ≤ 2× the floor on the largest development mesh (igea).
+
+    python scripts/bench_keep.py [--meshes igea ...] [--repeat 3]
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import igl
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from meshwm.mesh.io import read_mesh, write_mesh
+from meshwm.watermark import Decoder, embed
+
+MESHES = Path(__file__).resolve().parents[2] / "shared" / "meshes"
+IDENT = bytes.fromhex("0badc0de5ca1ab1e")
+
+
+def _floor(path: Path) -> float:
+    t0 = time.perf_counter()
+    v, f = read_mesh(path)
+    igl.harmonic(v, f, np.arange(4), np.eye(4)[:, :2], 1)
+    return time.perf_counter() - t0
+
+
+def _embed(path: Path, out: Path) -> float:
+    t0 = time.perf_counter()
+    v, f = read_mesh(path)
+    marked = embed(v, f, key="bench", ident=IDENT, distances=False)
+    elapsed = time.perf_counter() - t0
+    write_mesh(out, marked.vertices, marked.faces)
+    return elapsed
+
+
+def _extract(path: Path) -> float:
+    t0 = time.perf_counter()
+    v, f = read_mesh(path)
+    found = Decoder(v, f).extract_id(key="bench")
+    elapsed = time.perf_counter() - t0
+    if found.id != IDENT.hex():
+        raise SystemExit(f"{path}: the id did not read back ({found.id})")
+    return elapsed
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--meshes", nargs="+", default=["igea"])
+    parser.add_argument("--repeat", type=int, default=3)
+    args = parser.parse_args()
+    print("| mesh | vertices | floor s | embed s | × floor | extract s | × floor |")
+    print("|---|---:|---:|---:|---:|---:|---:|")
+    with tempfile.TemporaryDirectory() as tmp:
+        for name in args.meshes:
+            path = MESHES / f"{name}.ply"
+            out = Path(tmp) / f"{name}.ply"
+            floor, emb, ext = [], [], []
+            for _ in range(args.repeat):  # interleaved, so a load spike hits all three alike
+                floor.append(_floor(path))
+                emb.append(_embed(path, out))
+                ext.append(_extract(out))
+            fl, em, ex = (statistics.median(x) for x in (floor, emb, ext))
+            n = len(read_mesh(path)[0])
+            print(
+                f"| {name} | {n} | {fl:.2f} | {em:.2f} | {em / fl:.2f} | {ex:.2f} | {ex / fl:.2f} |"
+            )
+
+
+if __name__ == "__main__":
+    main()
