@@ -31,6 +31,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
+from meshwm.apps.bench.synthetic import SYNTHETIC, make
 from meshwm.attacks import ATTACKS, apply_attack
 from meshwm.detect import decide
 from meshwm.mesh.io import read_mesh
@@ -112,11 +113,9 @@ def attacks(beyond: bool) -> dict[str, Attack | None]:
 
 
 def load(name: str) -> tuple[np.ndarray, np.ndarray]:
-    """A dev mesh by name, or a generated one (``synthetic:<kind>``)."""
-    if name.startswith("synthetic:"):
-        from meshwm.gim import synthetic  # type: ignore[attr-defined]
-
-        return synthetic.make(name.split(":", 1)[1])  # type: ignore[no-any-return]
+    """A dev mesh by name, or a generated one (:data:`meshwm.apps.bench.synthetic.SYNTHETIC`)."""
+    if name in SYNTHETIC:
+        return make(name)
     return read_mesh(MESHES / f"{name}.ply")
 
 
@@ -217,7 +216,7 @@ def main() -> None:
     args = parser.parse_args()
     names = list(args.meshes)
     if args.synthetic:
-        names += ["synthetic:holes", "synthetic:genus8"]
+        names += list(SYNTHETIC)
     t0 = time.perf_counter()
     with ProcessPoolExecutor(args.jobs) as pool:
         rows = list(pool.map(run_mesh, names, [args.beyond] * len(names), [args.cho] * len(names)))

@@ -21,13 +21,14 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from meshwm.apps.bench.synthetic import SYNTHETIC, make
 from meshwm.gim.remesh import mesh_to_geometry_image
 from meshwm.gim.surface import sample_surface, surface_of
 from meshwm.mesh.io import read_mesh
 from meshwm.metrics import bounding_box_diagonal
 
 MESHES = Path(__file__).resolve().parents[2] / "shared" / "meshes"
-DEV = [p.stem for p in sorted(MESHES.glob("*.ply"))]
+DEV = [p.stem for p in sorted(MESHES.glob("*.ply"))] + list(SYNTHETIC)
 
 
 def similarity(rng: np.random.Generator, v: np.ndarray, f: np.ndarray):
@@ -63,7 +64,7 @@ def main() -> None:
     lines = ["| mesh | image | largest difference / diagonal | same to 1e-9 |", "|---|---|---|---|"]
     t0 = time.perf_counter()
     for name in args.meshes:
-        v, f = read_mesh(MESHES / f"{name}.ply")
+        v, f = make(name) if name in SYNTHETIC else read_mesh(MESHES / f"{name}.ply")
         diag = bounding_box_diagonal(v)
         for kind in args.kinds:
             image = kinds[kind]
