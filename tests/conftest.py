@@ -13,7 +13,13 @@ ASSETS = Path(__file__).parent.parent / "assets"
 
 #: Fixtures of sub-trees live in plugin modules next to this file: pytest's --doctest-modules
 #: imports every conftest.py under the name ``conftest``, so a second one would collide.
-pytest_plugins = ["_fixtures_attacks", "_fixtures_bench", "_fixtures_gim", "_fixtures_recover"]
+pytest_plugins = [
+    "_fixtures_attacks",
+    "_fixtures_bench",
+    "_fixtures_cutmap",
+    "_fixtures_gim",
+    "_fixtures_recover",
+]
 
 
 @pytest.fixture(scope="session")

@@ -215,10 +215,13 @@ def canonical_labelling(
     return np.asarray(order, dtype=np.int64), np.asarray(parent, dtype=np.int64)
 
 
-def _start(smooth: NDArray[np.float64], faces: NDArray[np.int64]) -> tuple[int, int]:
-    """The starting half-edge: the vertex farthest from the centroid, along its longest edge."""
+def _start(smooth: NDArray[np.float64], faces: NDArray[np.int64], rank: int = 0) -> tuple[int, int]:
+    """The starting half-edge: the ``rank``-th farthest vertex from the centroid (0: the
+    farthest), along its longest edge."""
     radial = np.linalg.norm(smooth - area_centroid(smooth, faces), axis=1)
-    source = int(np.argmax(radial))
+    if not 0 <= rank < len(radial):
+        raise ValueError(f"rank must lie in [0, {len(radial)}), got {rank}")
+    source = int(np.argsort(-radial, kind="stable")[rank]) if rank else int(np.argmax(radial))
     nbrs = np.unique(faces[np.any(faces == source, axis=1)])
     nbrs = nbrs[nbrs != source]
     length = np.linalg.norm(smooth[nbrs] - smooth[source], axis=1)
@@ -241,7 +244,12 @@ def _tree_path(parent: NDArray[np.int64], tip: int) -> NDArray[np.int64]:
 
 
 def stable_cut(
-    vertices: NDArray[np.float64], faces: NDArray[np.int64], *, steps: int = 50, lam: float = 0.5
+    vertices: NDArray[np.float64],
+    faces: NDArray[np.int64],
+    *,
+    steps: int = 50,
+    lam: float = 0.5,
+    rank: int = 0,
 ) -> StableCut:
     """Cut the mesh to a disk in its canonical labelling (see the module notes).
 
@@ -252,6 +260,10 @@ def stable_cut(
         Connected, consistently oriented, edge-manifold triangles.
     steps, lam
         The smoothing of the copy that picks the starting half-edge (:func:`smoothed_copy`).
+    rank : int, optional
+        Start from the ``rank``-th farthest vertex instead of the farthest: where the two
+        farthest are nearly tied, the mark or noise can swap them, and a reader then tries the
+        runner-up (:mod:`meshwm.readers.surface`).
 
     Returns
     -------
@@ -265,12 +277,12 @@ def stable_cut(
     vertices = np.asarray(vertices, dtype=np.float64)
     faces = np.asarray(faces, dtype=np.int64)
     smooth = smoothed_copy(vertices, faces, steps=steps, lam=lam)
-    source, first = _start(smooth, faces)
+    source, first = _start(smooth, faces, rank)
     order, parent = canonical_labelling(len(vertices), faces, source=source, first=first)
-    rank = np.empty_like(order)
-    rank[order] = np.arange(len(order))
+    label = np.empty_like(order)
+    label[order] = np.arange(len(order))
     if euler_characteristic(len(vertices), faces) != 2:
-        canonical = igl.cut_to_disk(_canonical_faces(faces, rank))
+        canonical = igl.cut_to_disk(_canonical_faces(faces, label))
         paths = [order[np.asarray(c, dtype=np.int64)] for c in canonical]
     else:  # connected and closed genus 0: igl.cut_to_disk leaves it uncut (igea: after 1.4 s)
         paths = [_tree_path(parent, int(order[-1]))]

@@ -29,14 +29,25 @@ from numpy.typing import NDArray
 
 from meshwm._validate import DEFAULT_MAX_FACES, check_mesh
 from meshwm.errors import MeshError
+from meshwm.gim.holes import boundary_loops, fill_holes
 from meshwm.gim.sampling import sampling_matrix
 from meshwm.gim.tutte import StableMap, stable_parameterize
 from meshwm.mesh.clean import clean_mesh
 
-__all__ = ["SURFACE_SIZES", "Surface", "SurfaceImage", "sample_surface", "surface_of"]
+__all__ = [
+    "SURFACE_RANKS",
+    "SURFACE_SIZES",
+    "Surface",
+    "SurfaceImage",
+    "remap_surface",
+    "sample_surface",
+    "surface_of",
+]
 
 #: The geometry-image sizes a mesh is sampled at (the embedder picks one, the reader tries all).
 SURFACE_SIZES = (128, 256)
+#: The cut's candidate starts a reader tries (the embedder uses the first).
+SURFACE_RANKS = (0, 1, 2)
 
 
 class Surface(NamedTuple):
@@ -53,9 +64,10 @@ class Surface(NamedTuple):
     used : (p,) bool ndarray
         The positions the cleaned component uses (the others belong to other components).
     map : StableMap
-        The cut and map of the cleaned component (on its own vertex numbering).
+        The cut and map of the cleaned component with its holes filled virtually (on its own
+        vertex numbering, the fans' centres after the cleaned vertices).
     clean_to_position : (k,) int64 ndarray
-        The position of each vertex of the cleaned component.
+        The position of each vertex of the cleaned component (not of the centres).
     report : dict
         ``components``, ``vertices_merged`` and the other counts of the cleaning.
     """
@@ -112,7 +124,9 @@ def _locate(positions: NDArray[np.float64], points: NDArray[np.float64]) -> NDAr
     return found.astype(np.int64)
 
 
-def surface_of(vertices: NDArray, faces: NDArray, *, max_faces: int = DEFAULT_MAX_FACES) -> Surface:
+def surface_of(
+    vertices: NDArray, faces: NDArray, *, max_faces: int = DEFAULT_MAX_FACES, rank: int = 0
+) -> Surface:
     """Clean, weld and map a mesh (see the module notes).
 
     Parameters
@@ -121,6 +135,8 @@ def surface_of(vertices: NDArray, faces: NDArray, *, max_faces: int = DEFAULT_MA
     faces : (m, 3) array_like of int
     max_faces : int, optional
         Refuse larger inputs.
+    rank : int, optional
+        The cut's candidate start (:func:`meshwm.gim.stable.stable_cut`; 0 for embedding).
 
     Returns
     -------
@@ -136,12 +152,48 @@ def surface_of(vertices: NDArray, faces: NDArray, *, max_faces: int = DEFAULT_MA
     positions, inverse = _distinct(v)
     clean = clean_mesh(v, f, max_faces=max_faces)
     to_position = _locate(positions, clean.vertices)
-    smap = stable_parameterize(clean.vertices, clean.faces)
+    smap = _map_filled(clean.vertices, clean.faces, rank=rank)
     used = np.zeros(len(positions), dtype=bool)
     used[to_position] = True
     return Surface(
         positions, inverse, to_position[clean.faces], used, smap, to_position, clean.report
     )
+
+
+def remap_surface(surface: Surface, positions: NDArray, *, rank: int = 0) -> Surface:
+    """The same cleaned surface with its distinct positions moved, and mapped again.
+
+    Cleaning depends on which positions coincide and on the faces, which moving every copy of
+    a position together does not change; only the map is computed anew (it may depend on the
+    geometry through its start).
+
+    Parameters
+    ----------
+    surface : Surface
+    positions : (p, 3) array_like
+        New distinct positions, one per ``surface.positions``.
+    rank : int, optional
+        The cut's candidate start.
+    """
+    p = np.asarray(positions, dtype=np.float64)
+    k = len(surface.clean_to_position)
+    filled = surface.map.cut.mesh.origin[surface.map.cut.mesh.faces]
+    clean_faces = filled[np.all(filled < k, axis=1)]
+    smap = _map_filled(p[surface.clean_to_position], clean_faces, rank=rank)
+    return surface._replace(positions=p, map=smap)
+
+
+def _map_filled(vertices: NDArray[np.float64], faces: NDArray[np.int64], *, rank: int) -> StableMap:
+    """The stable map of a cleaned component with its holes filled (:mod:`meshwm.gim.holes`).
+
+    A surface with small holes is a sphere, not a disk: mapped onto its longest hole as the
+    square's border, the far side shrinks to nothing.  Every hole but a long border is filled
+    with a fan to a centre vertex, so it becomes an island inside the map (its grid points are
+    not covered).  Which loops are filled depends only on the border's geometry.
+    """
+    filled = fill_holes(vertices, faces, boundary_loops(faces))
+    points = np.concatenate([vertices, filled.centres]) if len(filled.centres) else vertices
+    return stable_parameterize(points, filled.faces, rank=rank)
 
 
 def sample_surface(surface: Surface, *, size: int) -> SurfaceImage:
@@ -159,12 +211,19 @@ def sample_surface(surface: Surface, *, size: int) -> SurfaceImage:
     """
     cut = surface.map.cut.mesh
     sampling = sampling_matrix(surface.map.uv, cut.faces, size)
-    k = len(cut.origin)
-    to_position = surface.clean_to_position[cut.origin]
+    real = cut.origin < len(surface.clean_to_position)  # not a filled hole's centre
+    covered = sampling.covered.copy()
+    if not real.all():  # grid points in a filled hole touch its centre: not the surface
+        in_hole = np.asarray(sampling.matrix @ (~real).astype(np.float64)).ravel() > 0
+        covered &= ~in_hole.reshape(size, size)
+    keep = np.flatnonzero(real)
     fold = sp.csr_matrix(
-        (np.ones(k), (np.arange(k), to_position)), shape=(k, len(surface.positions))
+        (np.ones(len(keep)), (keep, surface.clean_to_position[cut.origin[keep]])),
+        shape=(len(cut.origin), len(surface.positions)),
     )
-    matrix = sp.csr_matrix(sampling.matrix @ fold)
+    rows = sp.diags(covered.ravel().astype(np.float64))
+    matrix = sp.csr_matrix(rows @ sampling.matrix @ fold)
+    matrix.eliminate_zeros()
     samples = np.asarray(matrix @ surface.positions).reshape(size, size, 3)
-    samples[~sampling.covered] = np.nan
-    return SurfaceImage(samples, matrix, sampling.covered)
+    samples[~covered] = np.nan
+    return SurfaceImage(samples, matrix, covered)

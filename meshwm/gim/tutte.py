@@ -150,7 +150,12 @@ def tutte_map(faces: NDArray[np.int64], rank: NDArray[np.int64]) -> NDArray[np.f
 
 
 def stable_parameterize(
-    vertices: NDArray[np.float64], faces: NDArray[np.int64], *, steps: int = 50, lam: float = 0.5
+    vertices: NDArray[np.float64],
+    faces: NDArray[np.int64],
+    *,
+    steps: int = 50,
+    lam: float = 0.5,
+    rank: int = 0,
 ) -> StableMap:
     """:func:`~meshwm.gim.stable.stable_cut` and the :func:`tutte_map` of the cut mesh.
 
@@ -161,12 +166,14 @@ def stable_parameterize(
         Connected, consistently oriented, edge-manifold triangles.
     steps, lam
         The smoothing of the copy the cut's start is chosen on.
+    rank : int, optional
+        Which candidate start (:func:`~meshwm.gim.stable.stable_cut`).
 
     Returns
     -------
     StableMap
     """
-    cut = stable_cut(vertices, faces, steps=steps, lam=lam)
-    rank = np.empty_like(cut.order)
-    rank[cut.order] = np.arange(len(cut.order))
-    return StableMap(cut, tutte_map(cut.mesh.faces, rank[cut.mesh.origin]))
+    cut = stable_cut(vertices, faces, steps=steps, lam=lam, rank=rank)
+    label = np.empty_like(cut.order)
+    label[cut.order] = np.arange(len(cut.order))
+    return StableMap(cut, tutte_map(cut.mesh.faces, label[cut.mesh.origin]))

@@ -14,6 +14,7 @@ SampledImage`` (or a tuple of them, one per hypothesis it offers) that raises
 from __future__ import annotations
 
 import importlib
+from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
 from meshwm._validate import DEFAULT_MAX_FACES
@@ -61,7 +62,7 @@ def read_received(
 
 def read_all(
     vertices: NDArray, faces: NDArray, *, max_faces: int = DEFAULT_MAX_FACES
-) -> tuple[SampledImage, ...]:
+) -> Sequence[SampledImage]:
     """Every image the first reader in :data:`READERS` that finds any offers.
 
     A reader may offer several images (the surface reader: one per size); the decoder tries
@@ -82,5 +83,5 @@ def read_all(
             errors.append(f"{name}: {exc}")
             continue
         # A SampledImage is a NamedTuple itself: test for it, not for tuple.
-        return (found,) if isinstance(found, SampledImage) else tuple(found)
+        return (found,) if isinstance(found, SampledImage) else found
     raise GridError("; ".join(errors))

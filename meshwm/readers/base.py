@@ -8,7 +8,7 @@ from typing import NamedTuple, Protocol
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["Reader", "SampledImage"]
+__all__ = ["LazyImages", "Reader", "SampledImage"]
 
 
 class SampledImage(NamedTuple):
@@ -54,4 +54,40 @@ class Reader(Protocol):
 
     def __call__(
         self, vertices: NDArray, faces: NDArray, *, max_faces: int
-    ) -> SampledImage | tuple[SampledImage, ...]: ...
+    ) -> SampledImage | Sequence[SampledImage]: ...
+
+
+class LazyImages(Sequence[SampledImage]):
+    """Images a reader offers, each made the first time it is asked for.
+
+    A reader whose later hypotheses cost a map each (the surface reader's runner-up cut
+    starts) offers them this way: a decoder that stops at the first image that decodes never
+    pays for the others, and counts each of them as one image of ``hypotheses`` 1.
+
+    Parameters
+    ----------
+    count : int
+        How many images.
+    make : callable
+        ``make(k)`` returns image ``k``.
+    """
+
+    def __init__(self, count: int, make: Callable[[int], SampledImage]) -> None:
+        self._count = int(count)
+        self._make = make
+        self._made: dict[int, SampledImage] = {}
+
+    def __len__(self) -> int:
+        return self._count
+
+    def __getitem__(self, k: int) -> SampledImage:  # type: ignore[override]
+        if not -self._count <= k < self._count:
+            raise IndexError(k)
+        k %= self._count
+        if k not in self._made:
+            self._made[k] = self._make(k)
+        return self._made[k]
+
+    def hypotheses_of(self, k: int) -> int:
+        """Image ``k``'s hypotheses, without making it (1 until it is made)."""
+        return self._made[k].hypotheses if k in self._made else 1

@@ -6,7 +6,10 @@ the received mesh is cleaned, cut and mapped exactly as the embedder did
 order, file metadata or side information is used, and the map is one the mark, noise, smoothing,
 quantisation and similarities do not move.  The mesh is then sampled at every size of
 :data:`meshwm.gim.surface.SURFACE_SIZES` (the embedder picked one; the decoder tries each, and
-each counts as a hypothesis).  The decoder is also offered the received mesh with uniform
+each counts as a hypothesis).  The map's one geometric choice, the cut's start (the vertex
+farthest from the centroid on a smoothed copy), can be a near-tie that the mark or noise tips;
+the runner-up starts (:data:`meshwm.gim.surface.SURFACE_RANKS`) are offered too, mapped only if
+the decoder gets that far.  The decoder is also offered the received mesh with uniform
 Laplacian smoothing undone, sampled the same way.
 """
 
@@ -17,8 +20,16 @@ from numpy.typing import NDArray
 
 from meshwm._validate import DEFAULT_MAX_FACES, check_mesh
 from meshwm.errors import GridError, MeshError
-from meshwm.gim.surface import SURFACE_SIZES, SurfaceImage, sample_surface, surface_of
-from meshwm.readers.base import SampledImage
+from meshwm.gim.surface import (
+    SURFACE_RANKS,
+    SURFACE_SIZES,
+    Surface,
+    SurfaceImage,
+    remap_surface,
+    sample_surface,
+    surface_of,
+)
+from meshwm.readers.base import LazyImages, SampledImage
 from meshwm.readers.connectivity import unsmoothed
 
 __all__ = ["read_surface"]
@@ -37,8 +48,8 @@ def _undone(
 
 def read_surface(
     vertices: NDArray, faces: NDArray, *, max_faces: int = DEFAULT_MAX_FACES
-) -> tuple[SampledImage, ...]:
-    """Sample a received mesh through its re-derived stable map, at every size.
+) -> LazyImages:
+    """Sample a received mesh through its re-derived stable map, at every size and start.
 
     Parameters
     ----------
@@ -49,8 +60,10 @@ def read_surface(
 
     Returns
     -------
-    tuple of SampledImage
-        One per size of :data:`~meshwm.gim.surface.SURFACE_SIZES`, each one hypothesis.
+    LazyImages
+        For each candidate start of :data:`~meshwm.gim.surface.SURFACE_RANKS` (the farthest
+        vertex first) one image per size of :data:`~meshwm.gim.surface.SURFACE_SIZES`, each
+        one hypothesis; the maps of the runner-up starts are made only when asked for.
 
     Raises
     ------
@@ -61,21 +74,25 @@ def read_surface(
     """
     v, f = check_mesh(vertices, faces, max_faces=max_faces)  # unusable arrays: MeshError
     try:
-        surface = surface_of(v, f, max_faces=max_faces)
+        first = surface_of(v, f, max_faces=max_faces)
     except MeshError as exc:  # a surface the map cannot open: nothing to read
         raise GridError(f"the surface cannot be mapped: {exc}") from exc
-    images = []
-    used_faces = surface.faces
-    for n in SURFACE_SIZES:
-        image = sample_surface(surface, size=n)
-        images.append(
-            SampledImage(
-                samples=image.samples,
-                hypotheses=1,
-                reader="surface",
-                smoothing_undone=lambda image=image: _undone(  # type: ignore[misc]
-                    surface.positions, used_faces, image
-                ),
-            )
+    surfaces: dict[int, Surface] = {SURFACE_RANKS[0]: first}
+
+    def make(k: int) -> SampledImage:
+        rank = SURFACE_RANKS[k // len(SURFACE_SIZES)]
+        if rank not in surfaces:
+            try:
+                surfaces[rank] = remap_surface(first, first.positions, rank=rank)
+            except MeshError:
+                surfaces[rank] = first  # no such start (a tiny mesh): the first map again
+        surface = surfaces[rank]
+        image = sample_surface(surface, size=SURFACE_SIZES[k % len(SURFACE_SIZES)])
+        return SampledImage(
+            samples=image.samples,
+            hypotheses=1,
+            reader="surface",
+            smoothing_undone=lambda: _undone(surface.positions, surface.faces, image),
         )
-    return tuple(images)
+
+    return LazyImages(len(SURFACE_RANKS) * len(SURFACE_SIZES), make)

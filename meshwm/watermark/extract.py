@@ -18,6 +18,7 @@ from meshwm.metrics import bit_error_rate, correlation2
 from meshwm.params import WatermarkParams
 from meshwm.profiles import get_profile
 from meshwm.profiles.base import Decoded
+from meshwm.profiles.robust.search import UNSMOOTH_BELOW
 from meshwm.readers import read_all
 from meshwm.readers.base import SampledImage
 from meshwm.watermark.embed import check_gim, check_mark
@@ -91,6 +92,11 @@ def extract_gim(
     return Extracted(mark, found.bits, found.confidence, found.report)
 
 
+def _clean(found: Decoded) -> bool:
+    """A read no other image could beat: every vote as strong as an unattacked read's."""
+    return float(np.mean(np.abs(found.confidence))) >= UNSMOOTH_BELOW
+
+
 def _valid_id(found: Decoded) -> bool:
     return decode_id(found.bits, found.confidence) is not None
 
@@ -158,7 +164,12 @@ class Decoder:
         #: The parameters used (``size`` is the first N found).
         self.params = params
         self._profile = get_profile(params.profile)
-        self._prepared = [self._profile.prepare(im, options=params.options) for im in images]
+        self._prepared: dict[int, Any] = {}
+
+    def _prepare(self, k: int) -> Any:
+        if k not in self._prepared:
+            self._prepared[k] = self._profile.prepare(self.images[k], options=self.params.options)
+        return self._prepared[k]
 
     def _decode_all(
         self, n_bits: int, *, key: str | bytes, enough: Callable[[Decoded], bool] | None = None
@@ -171,13 +182,16 @@ class Decoder:
         """
         hypotheses = 0
         tried = []
-        for k, (image, prepared) in enumerate(zip(self.images, self._prepared, strict=True)):
-            found = self._profile.decode(prepared, n_bits, key=key)
+        count = len(self.images)
+        for k in range(count):
+            image = self.images[k]
+            found = self._profile.decode(self._prepare(k), n_bits, key=key)
             hypotheses += image.hypotheses * int(found.report.get("hypotheses", 1))
             tried.append(_Try(float(np.mean(np.abs(found.confidence))), image, found))
             if enough is not None and enough(found):
-                rest = self.images[k + 1 :]
-                hypotheses += sum(im.hypotheses for im in rest) * self._profile.max_hypotheses
+                of = getattr(self.images, "hypotheses_of", lambda j: self.images[j].hypotheses)
+                rest = sum(of(j) for j in range(k + 1, count))
+                hypotheses += rest * self._profile.max_hypotheses
                 break
         tried.sort(key=lambda t: -t.strength)
         return tried, hypotheses
@@ -197,7 +211,7 @@ class Decoder:
         kept (its ``n`` and ``reader`` are reported); ``hypotheses`` is the sum over the images
         of the reader's count times the profile's (gains, candidates).
         """
-        tried, hypotheses = self._decode_all(n_bits, key=key)
+        tried, hypotheses = self._decode_all(n_bits, key=key, enough=_clean)
         return self._result(tried[0], hypotheses)
 
     def extract(
