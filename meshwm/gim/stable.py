@@ -17,9 +17,14 @@ the starting half-edge it depends on the connectivity only, so a permutation of 
 faces, a similarity, the mark or noise can change the labelling (and so the cut) only by moving
 the starting half-edge.  That half-edge is chosen on the smoothed copy by similarity-invariant
 quantities: the vertex farthest from the area centroid, and its neighbour along its longest
-smoothed edge.  A closed genus-0 mesh, which ``igl.cut_to_disk`` leaves uncut, is cut along the
-breadth-first tree path from that vertex to the last vertex labelled (one of the fewest-hops
-farthest).
+smoothed edge.  A closed genus-0 mesh, which ``igl.cut_to_disk`` leaves uncut, is cut along
+the shortest edge path on the smoothed copy from that vertex to the vertex farthest from it in
+space: both ends and the path are geometric, so a flip away from the path changes neither
+(a breadth-first tree path, the first choice, was relabelled by every flip the traversal met:
+10 flips of flat edges moved cow's whole cut; the geodesic path keeps it).  Where the farthest
+vertex is a near-tie between two tips, a reader also tries the runner-up tips (``rank``).
+Surfaces with small holes reach this case too, their holes filled
+(:mod:`meshwm.gim.holes`, :mod:`meshwm.gim.surface`).
 
 Measured (2026-12-01, ``tests/gim/test_stable.py`` and a probe over the dev meshes spot, cow,
 fandisk, camelhead (closed genus 0), kitten (genus 1), fertility (genus 4), bunny, plane_holes
@@ -49,8 +54,8 @@ import scipy.sparse as sp
 from numpy.typing import NDArray
 
 from meshwm.errors import MeshError
-from meshwm.gim.cut import CutMesh, area_centroid, cut_open, path_edges
-from meshwm.mesh.clean import euler_characteristic, uniform_smoothing_operator
+from meshwm.gim.cut import CutMesh, area_centroid, cut_open, edge_graph, path_edges
+from meshwm.mesh.clean import euler_characteristic, uniform_smoothing_operator, unique_edges
 
 __all__ = ["StableCut", "canonical_labelling", "smoothed_copy", "stable_cut"]
 
@@ -219,9 +224,18 @@ def _start(smooth: NDArray[np.float64], faces: NDArray[np.int64], rank: int = 0)
     """The starting half-edge: the ``rank``-th farthest vertex from the centroid (0: the
     farthest), along its longest edge."""
     radial = np.linalg.norm(smooth - area_centroid(smooth, faces), axis=1)
-    if not 0 <= rank < len(radial):
-        raise ValueError(f"rank must lie in [0, {len(radial)}), got {rank}")
-    source = int(np.argsort(-radial, kind="stable")[rank]) if rank else int(np.argmax(radial))
+    if rank == 0:
+        source = int(np.argmax(radial))
+    else:  # the runner-ups are the other tips: local maxima, not the farthest's neighbours
+        edges, _ = unique_edges(faces)
+        best = radial.copy()
+        np.maximum.at(best, edges[:, 0], radial[edges[:, 1]])
+        np.maximum.at(best, edges[:, 1], radial[edges[:, 0]])
+        tips = np.flatnonzero(radial >= best)
+        tips = tips[np.argsort(-radial[tips], kind="stable")]
+        if not 0 <= rank < len(tips):
+            raise MeshError(f"the surface has {len(tips)} tips, no start of rank {rank}")
+        source = int(tips[rank])
     nbrs = np.unique(faces[np.any(faces == source, axis=1)])
     nbrs = nbrs[nbrs != source]
     length = np.linalg.norm(smooth[nbrs] - smooth[source], axis=1)
@@ -234,6 +248,28 @@ def _canonical_faces(faces: NDArray[np.int64], rank: NDArray[np.int64]) -> NDArr
     shift = np.argmin(f, axis=1)
     f = np.take_along_axis(f, (shift[:, None] + np.arange(3)[None, :]) % 3, axis=1)
     return f[np.lexsort(f.T[::-1])]
+
+
+def _geodesic_path(
+    smooth: NDArray[np.float64], faces: NDArray[np.int64], source: int
+) -> NDArray[np.int64]:
+    """The shortest edge path on the smoothed copy from ``source`` to the vertex farthest
+    from it in space.
+
+    Both ends and the path are geometric: a flip of an edge away from the path changes
+    neither, one near it moves the path there only, while a breadth-first tree path is
+    relabelled by every flip the traversal meets.
+    """
+    from scipy.sparse.csgraph import dijkstra
+
+    edges, _ = unique_edges(faces)
+    graph = edge_graph(smooth, edges)
+    target = int(np.argmax(np.linalg.norm(smooth - smooth[source], axis=1)))
+    _, pred = dijkstra(graph, indices=source, return_predecessors=True)
+    path = [target]
+    while path[-1] != source and pred[path[-1]] >= 0:
+        path.append(int(pred[path[-1]]))
+    return np.asarray(path, dtype=np.int64)
 
 
 def _tree_path(parent: NDArray[np.int64], tip: int) -> NDArray[np.int64]:
@@ -261,9 +297,10 @@ def stable_cut(
     steps, lam
         The smoothing of the copy that picks the starting half-edge (:func:`smoothed_copy`).
     rank : int, optional
-        Start from the ``rank``-th farthest vertex instead of the farthest: where the two
-        farthest are nearly tied, the mark or noise can swap them, and a reader then tries the
-        runner-up (:mod:`meshwm.readers.surface`).
+        Start from the ``rank``-th farthest tip (a local maximum of the distance to the
+        centroid on the smoothed copy) instead of the farthest: where two tips are nearly tied,
+        the mark, noise or a few flips can swap them, and a reader then tries the runner-up
+        (:mod:`meshwm.readers.surface`).
 
     Returns
     -------
@@ -278,16 +315,20 @@ def stable_cut(
     faces = np.asarray(faces, dtype=np.int64)
     smooth = smoothed_copy(vertices, faces, steps=steps, lam=lam)
     source, first = _start(smooth, faces, rank)
-    order, parent = canonical_labelling(len(vertices), faces, source=source, first=first)
+    order, _ = canonical_labelling(len(vertices), faces, source=source, first=first)
     label = np.empty_like(order)
     label[order] = np.arange(len(order))
     if euler_characteristic(len(vertices), faces) != 2:
         canonical = igl.cut_to_disk(_canonical_faces(faces, label))
         paths = [order[np.asarray(c, dtype=np.int64)] for c in canonical]
     else:  # connected and closed genus 0: igl.cut_to_disk leaves it uncut (igea: after 1.4 s)
-        paths = [_tree_path(parent, int(order[-1]))]
-        if len(paths[0]) == 2:  # one edge does not open a sphere: on to the source's first
-            paths = [order[[-1, 0, 1]]]
+        paths = [_geodesic_path(smooth, faces, source)]
+        if len(paths[0]) == 2:  # one edge does not open a sphere: on to another neighbour
+            target = int(paths[0][0])
+            nbrs = np.unique(faces[np.any(faces == source, axis=1)])
+            nbrs = nbrs[(nbrs != source) & (nbrs != target)]
+            far = nbrs[np.argmax(np.linalg.norm(smooth[nbrs] - smooth[target], axis=1))]
+            paths = [np.asarray([target, source, int(far)], dtype=np.int64)]
     edges = np.sort(path_edges(paths), axis=1)
     edges = np.unique(edges, axis=0) if len(edges) else edges.reshape(0, 2)
     return StableCut(cut_open(vertices, faces, paths), edges, order)
