@@ -57,6 +57,9 @@ def test_the_unmarked_mesh_is_not_detected(kitten_mesh):
         ("float32", {}),
         ("quantize", {"bits": 10}),
         ("noise", {"amplitude": 0.001}),
+        ("split_seams", {}),
+        ("merge_load", {}),
+        ("weld_stl", {}),
     ],
 )
 def test_the_id_survives(kitten_marked, attack, options):
@@ -101,3 +104,10 @@ def test_grid_mode_is_the_papers_output(kitten_mesh):
     assert Decoder(marked.vertices, marked.faces).extract_id(key=KEY).report["reader"] == (
         "connectivity"
     )
+
+
+def test_a_surface_with_many_holes_is_marked_and_read(plane_mesh):
+    v, f = plane_mesh  # 27 boundary loops: filled virtually, islands in the map
+    marked = embed(v, f, key=KEY, ident=IDENT, distances=False)
+    np.testing.assert_array_equal(marked.faces, f)
+    assert Decoder(marked.vertices, f).extract_id(key=KEY).id == IDENT.hex()

@@ -534,3 +534,27 @@ def test_demo(tmp_path, capsys):
     with Image.open(out / "compare.png") as image:
         assert image.format == "PNG"
         assert image.width > image.height > 0
+
+
+# --------------------------------------------------------------------------------------------
+# the user's mesh kept (the default)
+
+
+@pytest.mark.parametrize("suffix", [".ply", ".obj", ".stl"])
+def test_embed_keeps_the_input_mesh_in_each_format(suffix, tmp_path, capsys):
+    from meshwm.mesh.io import read_mesh, write_mesh
+
+    v, f = read_mesh(SPOT)
+    src = tmp_path / f"in{suffix}"
+    write_mesh(src, v, f)
+    out = tmp_path / f"out{suffix}"
+    argv = ["embed", str(src), "-o", str(out), "--key", KEY, "--id", "0xC0FFEE42", "--json"]
+    assert main([*argv, "--no-distance"]) == 0
+    report = _json(capsys)
+    assert report["mode"] == "kept" and report["n"] in (128, 256)
+    vi, fi = read_mesh(src)
+    vo, fo = read_mesh(out)
+    assert vo.shape == vi.shape and np.array_equal(fo, fi)
+    assert 0 < np.abs(vo - vi).max() < 0.01 * np.ptp(vi, axis=0).max()
+    assert main(["verify", str(out), "--key", KEY, "--id", "0xC0FFEE42"]) == 0
+    assert main(["verify", str(out), "--key", "not the key", "--id", "0xC0FFEE42"]) == 1
