@@ -34,7 +34,7 @@ from meshwm.profiles import get_profile
 from meshwm.readers.base import SampledImage
 from meshwm.signal.fill import fill_missing
 
-__all__ = ["KEEP_PASSES", "KeptMark", "embed_kept", "normal_rms"]
+__all__ = ["KEEP_MAX_PEAK", "KEEP_PASSES", "KeptMark", "embed_kept", "normal_peak", "normal_rms"]
 
 #: Passes of (sample, quantise, transfer) after the first.
 KEEP_PASSES = 3
@@ -47,6 +47,8 @@ _CALIBRATION_ROUNDS = 1
 _ID_SLACK = 0.02
 #: Passes beyond :data:`KEEP_PASSES` while the mesh does not yet read back every bit.
 _EXTRA_PASSES = 4
+#: The largest normal move allowed, over the diagonal (keeps Hausdorff under 0.15 %).
+KEEP_MAX_PEAK = 1.2e-3
 #: The transfer's smoothness energy (:data:`meshwm.gim.transfer.ENERGIES`).
 KEEP_ENERGY = "dirichlet"
 #: Least-squares refinement passes of each transfer (the outer passes refine too).
@@ -101,6 +103,21 @@ def normal_rms(
     if diag <= 0 or area.sum() <= 0:
         return 0.0
     return float(np.sqrt(np.sum(area * along**2) / area.sum())) / diag
+
+
+def normal_peak(
+    positions: NDArray[np.float64], faces: NDArray[np.int64], displacement: NDArray[np.float64]
+) -> float:
+    """The largest vertex displacement along the vertex normals, over the diagonal.
+
+    A first-order stand-in for the Hausdorff distance between the mesh and the moved mesh.
+    """
+    used = np.unique(faces)
+    normals = np.nan_to_num(igl.per_vertex_normals(positions, faces))
+    along = np.abs(np.einsum("ij,ij->i", normals, displacement))[used]
+    pts = positions[used]
+    diag = float(np.linalg.norm(pts.max(axis=0) - pts.min(axis=0)))
+    return float(along.max()) / diag if diag > 0 and len(along) else 0.0
 
 
 class _Attempt(NamedTuple):
@@ -164,6 +181,12 @@ def _mark_at(
     else:
         opts = options
     d, rep = run(opts, until_read=True)
+    peak = normal_peak(positions, faces, d)
+    if step is not None and peak > KEEP_MAX_PEAK and hasattr(options, "tangential_step"):
+        # A mesh that carries the change only in a few places needs a large step there; keep
+        # the largest move (the Hausdorff distance, to first order) under the cap instead.
+        step = float(step) * KEEP_MAX_PEAK / peak
+        d, rep = run(dataclasses.replace(options, tangential_step=step), until_read=True)
     report.update(rep)
     report["step"] = step
     report["distortion"] = normal_rms(positions, faces, d)
