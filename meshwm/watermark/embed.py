@@ -13,14 +13,13 @@ from meshwm.errors import CapacityError, GridError, MeshError
 from meshwm.gim.recover import recover_grid
 from meshwm.gim.remesh import GeometryImage, mesh_to_geometry_image
 from meshwm.gim.to_mesh import geometry_image_to_mesh
-from meshwm.message.mark import _check_bits as check_mark_bits
-from meshwm.message.mark import default_mark
 from meshwm.message.payload import encode_id
 from meshwm.message.scramble import arnold_scramble
 from meshwm.metrics import bounding_box_diagonal, surface_distance
 from meshwm.params import WatermarkParams
 from meshwm.profiles import get_profile
 from meshwm.profiles.base import Embedding
+from meshwm.watermark.checks import check_gim, check_mark
 
 __all__ = ["Embedded", "check_gim", "check_mark", "embed", "embed_gim"]
 
@@ -41,27 +40,6 @@ class Embedded(NamedTuple):
     vertices: NDArray[np.float64]
     faces: NDArray[np.int64]
     report: dict[str, Any]
-
-
-def check_gim(gim: NDArray, params: WatermarkParams) -> NDArray[np.float64]:
-    gim = np.asarray(gim, dtype=np.float64)
-    if gim.ndim != 3 or gim.shape != (params.size, params.size, 3):
-        raise ValueError(
-            f"gim must have shape ({params.size}, {params.size}, 3) for size={params.size}, "
-            f"got {gim.shape}"
-        )
-    if not np.all(np.isfinite(gim)):
-        raise ValueError("gim contains NaN or infinite values")
-    return gim
-
-
-def check_mark(mark: NDArray | None) -> NDArray[np.uint8]:
-    if mark is None:
-        return default_mark(32)
-    arr = check_mark_bits(mark)  # 2-D, 0/1, sane size
-    if arr.shape[0] != arr.shape[1] or arr.shape[0] < 2:
-        raise ValueError(f"mark must be a square 2-D 0/1 image, got shape {arr.shape}")
-    return arr
 
 
 def embed_gim(

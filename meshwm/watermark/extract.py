@@ -21,7 +21,7 @@ from meshwm.profiles.base import Decoded
 from meshwm.profiles.robust.search import UNSMOOTH_BELOW
 from meshwm.readers import read_all
 from meshwm.readers.base import SampledImage
-from meshwm.watermark.embed import check_gim, check_mark
+from meshwm.watermark.checks import check_gim, check_mark
 
 __all__ = ["Decoder", "Extracted", "ExtractedId", "extract", "extract_gim", "extract_id", "verify"]
 
