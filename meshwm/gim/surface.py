@@ -213,6 +213,11 @@ def sample_surface(surface: Surface, *, size: int) -> SurfaceImage:
     sampling = sampling_matrix(surface.map.uv, cut.faces, size)
     real = cut.origin < len(surface.clean_to_position)  # not a filled hole's centre
     covered = sampling.covered.copy()
+    # The grid's border lies on the map's boundary, where triangles with three corners on one
+    # side of the square have no area and rounding picks among them: not samples (the robust
+    # profile never moves border samples anyway).
+    covered[[0, -1], :] = False
+    covered[:, [0, -1]] = False
     if not real.all():  # grid points in a filled hole touch its centre: not the surface
         in_hole = np.asarray(sampling.matrix @ (~real).astype(np.float64)).ravel() > 0
         covered &= ~in_hole.reshape(size, size)

@@ -75,16 +75,27 @@ def boundary_loop(faces: NDArray[np.int64], rank: NDArray[np.int64]) -> NDArray[
         raise MeshError("the cut mesh's boundary is not one simple loop")
     succ = np.full(n, -1, dtype=np.int64)
     succ[border[:, 0]] = border[:, 1]
-    first = int(border[np.lexsort((rank[border[:, 1]], rank[border[:, 0]]))[0], 0])
-    loop = [first]
+    start = int(border[np.lexsort((rank[border[:, 1]], rank[border[:, 0]]))[0], 0])
+    loop = [start]
     nxt = succ.tolist()
-    while nxt[loop[-1]] != first:
+    while nxt[loop[-1]] != start:
         loop.append(nxt[loop[-1]])
         if len(loop) > len(border):
             break
     if len(loop) != len(border):
         raise MeshError(f"the cut mesh's boundary is {len(border)} edges, not one loop")
-    return np.asarray(loop, dtype=np.int64)
+    ring = np.asarray(loop, dtype=np.int64)
+    # Copies of the smallest rank whose successors are copies of one vertex too (branch
+    # points of a genus > 0 cut): the start whose whole loop of ranks is smallest.
+    labels = rank[ring]
+    at = np.flatnonzero(labels == labels[0])
+    if len(at) > 1:
+        after = labels[(at[:, None] + 1) % len(ring)].ravel()
+        tied = at[after == after.min()]
+        if len(tied) > 1:
+            best = min(tied.tolist(), key=lambda k: np.roll(labels, -k).tolist())
+            ring = np.roll(ring, -best)
+    return ring
 
 
 def _square(count: int) -> NDArray[np.float64]:
