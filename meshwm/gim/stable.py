@@ -18,13 +18,13 @@ faces, a similarity, the mark or noise can change the labelling (and so the cut)
 the starting half-edge.  That half-edge is chosen on the smoothed copy by similarity-invariant
 quantities: the vertex farthest from the area centroid, and its neighbour along its longest
 smoothed edge.  A closed genus-0 mesh, which ``igl.cut_to_disk`` leaves uncut, is cut along
-the shortest edge path on the smoothed copy from that vertex to the vertex farthest from it in
-space: both ends and the path are geometric, so a flip away from the path changes neither
-(a breadth-first tree path, the first choice, was relabelled by every flip the traversal met:
-10 flips of flat edges moved cow's whole cut; the geodesic path keeps it).  Where the farthest
-vertex is a near-tie between two tips, a reader also tries the runner-up tips (``rank``).
-Surfaces with small holes reach this case too, their holes filled
-(:mod:`meshwm.gim.holes`, :mod:`meshwm.gim.surface`).
+the breadth-first tree path from that vertex to the last vertex labelled (one of the fewest-hops
+farthest).  (A geodesic path on the smoothed copy between geometric ends survived 10 flips on
+cow where this one does not, but a smoothing attack then moved it; the flips are lost to the
+map's own sensitivity anyway, see docs/keep.md.)  Where the farthest vertex is a near-tie
+between two tips, the mark alone can swap them (spot: 8e-6 of the radius apart), so a reader
+also tries the runner-up tips (``rank``).  Surfaces with small holes reach this case too, their
+holes filled (:mod:`meshwm.gim.holes`, :mod:`meshwm.gim.surface`).
 
 Measured (2026-12-01, ``tests/gim/test_stable.py`` and a probe over the dev meshes spot, cow,
 fandisk, camelhead (closed genus 0), kitten (genus 1), fertility (genus 4), bunny, plane_holes
@@ -54,7 +54,7 @@ import scipy.sparse as sp
 from numpy.typing import NDArray
 
 from meshwm.errors import MeshError
-from meshwm.gim.cut import CutMesh, area_centroid, cut_open, edge_graph, path_edges
+from meshwm.gim.cut import CutMesh, area_centroid, cut_open, path_edges
 from meshwm.mesh.clean import euler_characteristic, uniform_smoothing_operator, unique_edges
 
 __all__ = ["StableCut", "canonical_labelling", "smoothed_copy", "stable_cut"]
@@ -250,28 +250,6 @@ def _canonical_faces(faces: NDArray[np.int64], rank: NDArray[np.int64]) -> NDArr
     return f[np.lexsort(f.T[::-1])]
 
 
-def _geodesic_path(
-    smooth: NDArray[np.float64], faces: NDArray[np.int64], source: int
-) -> NDArray[np.int64]:
-    """The shortest edge path on the smoothed copy from ``source`` to the vertex farthest
-    from it in space.
-
-    Both ends and the path are geometric: a flip of an edge away from the path changes
-    neither, one near it moves the path there only, while a breadth-first tree path is
-    relabelled by every flip the traversal meets.
-    """
-    from scipy.sparse.csgraph import dijkstra
-
-    edges, _ = unique_edges(faces)
-    graph = edge_graph(smooth, edges)
-    target = int(np.argmax(np.linalg.norm(smooth - smooth[source], axis=1)))
-    _, pred = dijkstra(graph, indices=source, return_predecessors=True)
-    path = [target]
-    while path[-1] != source and pred[path[-1]] >= 0:
-        path.append(int(pred[path[-1]]))
-    return np.asarray(path, dtype=np.int64)
-
-
 def _tree_path(parent: NDArray[np.int64], tip: int) -> NDArray[np.int64]:
     path = [tip]
     while parent[path[-1]] >= 0:
@@ -315,20 +293,16 @@ def stable_cut(
     faces = np.asarray(faces, dtype=np.int64)
     smooth = smoothed_copy(vertices, faces, steps=steps, lam=lam)
     source, first = _start(smooth, faces, rank)
-    order, _ = canonical_labelling(len(vertices), faces, source=source, first=first)
+    order, parent = canonical_labelling(len(vertices), faces, source=source, first=first)
     label = np.empty_like(order)
     label[order] = np.arange(len(order))
     if euler_characteristic(len(vertices), faces) != 2:
         canonical = igl.cut_to_disk(_canonical_faces(faces, label))
         paths = [order[np.asarray(c, dtype=np.int64)] for c in canonical]
     else:  # connected and closed genus 0: igl.cut_to_disk leaves it uncut (igea: after 1.4 s)
-        paths = [_geodesic_path(smooth, faces, source)]
-        if len(paths[0]) == 2:  # one edge does not open a sphere: on to another neighbour
-            target = int(paths[0][0])
-            nbrs = np.unique(faces[np.any(faces == source, axis=1)])
-            nbrs = nbrs[(nbrs != source) & (nbrs != target)]
-            far = nbrs[np.argmax(np.linalg.norm(smooth[nbrs] - smooth[target], axis=1))]
-            paths = [np.asarray([target, source, int(far)], dtype=np.int64)]
+        paths = [_tree_path(parent, int(order[-1]))]
+        if len(paths[0]) == 2:  # one edge does not open a sphere: on to the source's first
+            paths = [order[[-1, 0, 1]]]
     edges = np.sort(path_edges(paths), axis=1)
     edges = np.unique(edges, axis=0) if len(edges) else edges.reshape(0, 2)
     return StableCut(cut_open(vertices, faces, paths), edges, order)

@@ -3,7 +3,7 @@
 Smoothing shrinks the mark's small atoms more than the host's large shapes, which no gain can
 fix; impulse noise corrupts a few coefficients badly.  When the image as received decodes with
 a mean |confidence| under :data:`UNSMOOTH_BELOW`, the decoder first tries it with impulse
-spikes dropped (:func:`meshwm.signal.fill.find_spikes`), then, if that did not help, the
+spikes dropped (:func:`meshwm.signal.fill.find_spikes`), then, if the best is still weak, the
 reader's images with k steps of uniform Laplacian smoothing undone
 (:attr:`meshwm.readers.base.SampledImage.smoothing_undone`), and keeps the candidate that
 decodes with the highest mean |confidence|.  Each candidate tried is one more hypothesis for
@@ -106,7 +106,7 @@ class Candidates:
                 res = decode_robust(found[0], n_bits, key=key)
                 if _strength(res) > _strength(best):
                     best, despiked = res, found[1]
-        if _strength(best) < UNSMOOTH_BELOW and not despiked:
+        if _strength(best) < UNSMOOTH_BELOW:  # despiking did not make it clean either
             for k, prepared in self.unsmoothed():
                 tried += 1
                 res = decode_robust(prepared, n_bits, key=key)
