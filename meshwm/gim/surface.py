@@ -26,6 +26,7 @@ from typing import NamedTuple
 import numpy as np
 import scipy.sparse as sp
 from numpy.typing import NDArray
+from scipy.sparse.csgraph import connected_components
 
 from meshwm._validate import DEFAULT_MAX_FACES, check_mesh
 from meshwm.errors import MeshError
@@ -47,7 +48,7 @@ __all__ = [
 #: The geometry-image sizes a mesh is sampled at (the embedder picks one, the reader tries all).
 SURFACE_SIZES = (128, 256)
 #: The cut's candidate starts a reader tries (the embedder uses the first).
-SURFACE_RANKS = (0, 1, 2)
+SURFACE_RANKS = (0, 1, 2, 3)
 
 
 class Surface(NamedTuple):
@@ -125,7 +126,12 @@ def _locate(positions: NDArray[np.float64], points: NDArray[np.float64]) -> NDAr
 
 
 def surface_of(
-    vertices: NDArray, faces: NDArray, *, max_faces: int = DEFAULT_MAX_FACES, rank: int = 0
+    vertices: NDArray,
+    faces: NDArray,
+    *,
+    max_faces: int = DEFAULT_MAX_FACES,
+    rank: int = 0,
+    merge: bool = True,
 ) -> Surface:
     """Clean, weld and map a mesh (see the module notes).
 
@@ -137,6 +143,10 @@ def surface_of(
         Refuse larger inputs.
     rank : int, optional
         The cut's candidate start (:func:`meshwm.gim.stable.stable_cut`; 0 for embedding).
+    merge : bool, optional
+        Clean as described (default).  False: the connectivity as given, largest component,
+        nothing merged: coarse quantisation makes distinct vertices coincide, and merging them
+        can leave a surface that is no longer a manifold (the reader's second try).
 
     Returns
     -------
@@ -149,6 +159,8 @@ def surface_of(
         to a disk.
     """
     v, f = check_mesh(vertices, faces, max_faces=max_faces)
+    if not merge:
+        return _as_given(v, f, rank=rank)
     positions, inverse = _distinct(v)
     clean = clean_mesh(v, f, max_faces=max_faces)
     to_position = _locate(positions, clean.vertices)
@@ -158,6 +170,24 @@ def surface_of(
     return Surface(
         positions, inverse, to_position[clean.faces], used, smap, to_position, clean.report
     )
+
+
+def _as_given(v: NDArray[np.float64], f: NDArray[np.int64], *, rank: int) -> Surface:
+    """:func:`surface_of` on the largest component as given: every vertex its own position."""
+    n = len(v)
+    edges = np.concatenate([f[:, [0, 1]], f[:, [1, 2]]])
+    graph = sp.coo_matrix((np.ones(len(edges)), (edges[:, 0], edges[:, 1])), shape=(n, n))
+    _, labels = connected_components(graph, directed=False)
+    face_label = labels[f[:, 0]]
+    main = int(np.argmax(np.bincount(face_label)))
+    cf_in = f[face_label == main]
+    index = np.unique(cf_in)  # the component's vertices, in the input's order
+    cf = np.searchsorted(index, cf_in).astype(np.int64)
+    used = np.zeros(n, dtype=bool)
+    used[index] = True
+    smap = _map_filled(v[index], cf, rank=rank)
+    report = {"components": int(labels[np.unique(f)].max() + 1), "merged": False}
+    return Surface(v.copy(), np.arange(n, dtype=np.int64), cf_in, used, smap, index, report)
 
 
 def remap_surface(surface: Surface, positions: NDArray, *, rank: int = 0) -> Surface:

@@ -75,8 +75,13 @@ def read_surface(
     v, f = check_mesh(vertices, faces, max_faces=max_faces)  # unusable arrays: MeshError
     try:
         first = surface_of(v, f, max_faces=max_faces)
-    except MeshError as exc:  # a surface the map cannot open: nothing to read
-        raise GridError(f"the surface cannot be mapped: {exc}") from exc
+    except MeshError as merged:
+        # Coarse quantisation makes distinct vertices coincide; merged, they can pinch the
+        # surface into a non-manifold: read the connectivity as given instead.
+        try:
+            first = surface_of(v, f, max_faces=max_faces, merge=False)
+        except MeshError:  # a surface the map cannot open: nothing to read
+            raise GridError(f"the surface cannot be mapped: {merged}") from merged
     surfaces: dict[int, Surface] = {SURFACE_RANKS[0]: first}
 
     def make(k: int) -> SampledImage:
