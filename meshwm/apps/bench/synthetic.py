@@ -22,8 +22,10 @@ from meshwm.mesh.clean import unique_edges
 
 __all__ = ["SYNTHETIC", "holed_plate", "make", "punch_holes"]
 
-#: The generated meshes by name: kitten (bundled) with 35 holes punched, and a genus-8 plate.
-SYNTHETIC = ("holes35", "genus8")
+#: The generated meshes by name: kitten (bundled) with 35 holes punched, a genus-8 plate (built
+#: on a grid: mirror-symmetric, with exactly equal edges), and the plate with its vertices
+#: jittered by 0.1 % of the mean edge length (a modelled part, not a perfect grid).
+SYNTHETIC = ("holes35", "genus8", "genus8_jittered")
 
 
 def make(name: str) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
@@ -38,6 +40,12 @@ def make(name: str) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
     """
     if name == "genus8":
         return holed_plate()
+    if name == "genus8_jittered":
+        v, f = holed_plate()
+        edges = v[f[:, [1, 2, 0]]] - v[f]
+        scale = 1e-3 * float(np.linalg.norm(edges, axis=-1).mean())
+        jitter = np.random.default_rng(8).uniform(-scale, scale, v.shape)
+        return v + jitter, f
     if name == "holes35":
         from meshwm.mesh.io import read_mesh
 
