@@ -29,10 +29,12 @@ from meshwm.errors import CapacityError
 from meshwm.gim.sampling import Sampling
 from meshwm.gim.surface import SURFACE_SIZES, Surface, SurfaceImage, sample_surface, surface_of
 from meshwm.gim.transfer import Transfer
+from meshwm.message.payload import PAYLOAD_BITS, decode_id
 from meshwm.params import WatermarkParams
 from meshwm.profiles import get_profile
 from meshwm.readers.base import SampledImage
 from meshwm.signal.fill import fill_missing
+from meshwm.watermark.extract import Decoder
 
 __all__ = ["KEEP_MAX_PEAK", "KEEP_PASSES", "KeptMark", "embed_kept", "normal_peak", "normal_rms"]
 
@@ -125,7 +127,6 @@ def normal_peak(
 class _Attempt(NamedTuple):
     displacement: NDArray[np.float64]
     report: dict[str, Any]
-    score: float
 
 
 def _mark_at(
@@ -193,8 +194,7 @@ def _mark_at(
     report["step"] = step
     report["distortion"] = normal_rms(positions, faces, d)
     report["ber"], report["confidence"] = read(d)
-    score = report["confidence"] - report["ber"]
-    return _Attempt(d, report, score)
+    return _Attempt(d, report)
 
 
 def embed_kept(
@@ -245,9 +245,11 @@ def embed_kept(
             continue
         out = (surface.positions + attempt.displacement)[surface.inverse]
         # Read back as a blind reader will: the map re-derived from the marked mesh itself.
-        ber, strength = _read_back(out, faces, bits, n, key=key, params=params, max_faces=max_faces)
+        decoder = Decoder(out, faces, params=params, max_faces=max_faces)
+        got, confidence, _ = decoder.decode(len(bits), key=key)
+        ber, strength = float(np.mean(got != bits)), float(np.mean(np.abs(confidence)))
         tried[str(n)] = {"ber": ber, "confidence": strength}
-        if ber == 0 or (ber <= _ID_SLACK and _id_reads(out, faces, bits, key, params, max_faces)):
+        if ber == 0 or (ber <= _ID_SLACK and _id_reads(decoder, bits, key)):
             report = {**attempt.report, "n": n, "sizes_tried": tried, **_clean_counts(surface)}
             return KeptMark(out, report)
         worst = min(worst, ber)
@@ -269,42 +271,11 @@ def _size_order(sizes: tuple[int, ...], n_bits: int) -> list[int]:
     return [first, *(n for n in ordered if n != first)]
 
 
-def _id_reads(
-    vertices: NDArray[np.float64],
-    faces: NDArray,
-    bits: NDArray[np.uint8],
-    key: str | bytes,
-    params: WatermarkParams,
-    max_faces: int,
-) -> bool:
-    """Whether ``bits`` are an id's code and the blind reader reads that id back."""
-    from meshwm.message.payload import PAYLOAD_BITS, decode_id
-    from meshwm.watermark.extract import Decoder
-
+def _id_reads(decoder: Decoder, bits: NDArray[np.uint8], key: str | bytes) -> bool:
+    """Whether ``bits`` are an id's code and the blind decoder reads that id back."""
     if len(bits) != PAYLOAD_BITS or (ident := decode_id(bits)) is None:
         return False
-    found = Decoder(vertices, faces, params=params, max_faces=max_faces).extract_id(key=key)
-    return found.id == ident
-
-
-def _read_back(
-    vertices: NDArray[np.float64],
-    faces: NDArray,
-    bits: NDArray[np.uint8],
-    n: int,
-    *,
-    key: str | bytes,
-    params: WatermarkParams,
-    max_faces: int,
-) -> tuple[float, float]:
-    """BER and mean |confidence| of the marked mesh read as received, by the blind decoder."""
-    from meshwm.watermark.extract import Decoder
-
-    got, confidence, report = Decoder(vertices, faces, params=params, max_faces=max_faces).decode(
-        len(bits), key=key
-    )
-    del n, report
-    return float(np.mean(got != bits)), float(np.mean(np.abs(confidence)))
+    return decoder.extract_id(key=key).id == ident
 
 
 def _clean_counts(surface: Surface) -> dict[str, Any]:
