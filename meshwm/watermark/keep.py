@@ -94,16 +94,12 @@ def normal_rms(
     -------
     float
     """
-    used = np.unique(faces)
-    normals = igl.per_vertex_normals(positions, faces)
+    along, diag = _along_normals(positions, faces, displacement)
     area = np.zeros(len(positions))
     e1 = positions[faces[:, 1]] - positions[faces[:, 0]]
     e2 = positions[faces[:, 2]] - positions[faces[:, 0]]
     tri = 0.5 * np.linalg.norm(np.cross(e1, e2), axis=1)
     np.add.at(area, faces.ravel(), np.repeat(tri / 3.0, 3))
-    along = np.einsum("ij,ij->i", np.nan_to_num(normals), displacement)
-    pts = positions[used]
-    diag = float(np.linalg.norm(pts.max(axis=0) - pts.min(axis=0)))
     if diag <= 0 or area.sum() <= 0:
         return 0.0
     return float(np.sqrt(np.sum(area * along**2) / area.sum())) / diag
@@ -116,12 +112,19 @@ def normal_peak(
 
     A first-order stand-in for the Hausdorff distance between the mesh and the moved mesh.
     """
-    used = np.unique(faces)
+    along, diag = _along_normals(positions, faces, displacement)
+    used = np.abs(along[np.unique(faces)])
+    return float(used.max()) / diag if diag > 0 and len(used) else 0.0
+
+
+def _along_normals(
+    positions: NDArray[np.float64], faces: NDArray[np.int64], displacement: NDArray[np.float64]
+) -> tuple[NDArray[np.float64], float]:
+    """Each vertex's displacement along its normal, and the used vertices' bbox diagonal."""
     normals = np.nan_to_num(igl.per_vertex_normals(positions, faces))
-    along = np.abs(np.einsum("ij,ij->i", normals, displacement))[used]
-    pts = positions[used]
-    diag = float(np.linalg.norm(pts.max(axis=0) - pts.min(axis=0)))
-    return float(along.max()) / diag if diag > 0 and len(along) else 0.0
+    along = np.einsum("ij,ij->i", normals, displacement)
+    pts = positions[np.unique(faces)]
+    return along, float(np.linalg.norm(pts.max(axis=0) - pts.min(axis=0)))
 
 
 class _Attempt(NamedTuple):
