@@ -57,7 +57,13 @@ from meshwm.errors import MeshError
 from meshwm.gim.cut import CutMesh, area_centroid, cut_open, path_edges
 from meshwm.mesh.clean import euler_characteristic, uniform_smoothing_operator, unique_edges
 
-__all__ = ["StableCut", "canonical_labelling", "smoothed_copy", "stable_cut"]
+__all__ = ["EDGE_MARGIN", "TIPS", "StableCut", "canonical_labelling", "smoothed_copy", "stable_cut"]
+
+#: The tips (local maxima of the distance to the centroid) a start may be taken at.
+TIPS = 4
+#: Relative margin under which a tip's two longest smoothed edges are a near-tie (the genus-8
+#: plate's corner: 8e-4, which the mark crosses; the dev meshes: 5-40 %).
+EDGE_MARGIN = 0.03
 
 
 class StableCut(NamedTuple):
@@ -72,11 +78,16 @@ class StableCut(NamedTuple):
         The cut's edges as pairs of input vertex indices, each pair sorted, rows sorted.
     order : (n,) int64 ndarray
         The canonical labelling: ``order[k]`` is the input vertex labelled ``k``.
+    near_ties : tuple of int
+        The ranks ``TIPS + t`` (:func:`stable_cut`) whose start is a near-tie: tip ``t``'s two
+        longest smoothed edges within :data:`EDGE_MARGIN` of each other, so the mark or noise
+        may swap them; a reader tries those ranks too.
     """
 
     mesh: CutMesh
     edges: NDArray[np.int64]
     order: NDArray[np.int64]
+    near_ties: tuple[int, ...] = ()
 
 
 def smoothed_copy(
@@ -220,26 +231,53 @@ def canonical_labelling(
     return np.asarray(order, dtype=np.int64), np.asarray(parent, dtype=np.int64)
 
 
-def _start(smooth: NDArray[np.float64], faces: NDArray[np.int64], rank: int = 0) -> tuple[int, int]:
-    """The starting half-edge: the ``rank``-th farthest vertex from the centroid (0: the
-    farthest), along its longest edge."""
+def _tips(smooth: NDArray[np.float64], faces: NDArray[np.int64]) -> NDArray[np.int64]:
+    """Local maxima of the distance to the area centroid, farthest first (at most TIPS)."""
     radial = np.linalg.norm(smooth - area_centroid(smooth, faces), axis=1)
-    if rank == 0:
-        source = int(np.argmax(radial))
-    else:  # the runner-ups are the other tips: local maxima, not the farthest's neighbours
-        edges, _ = unique_edges(faces)
-        best = radial.copy()
-        np.maximum.at(best, edges[:, 0], radial[edges[:, 1]])
-        np.maximum.at(best, edges[:, 1], radial[edges[:, 0]])
-        tips = np.flatnonzero(radial >= best)
-        tips = tips[np.argsort(-radial[tips], kind="stable")]
-        if not 0 <= rank < len(tips):
-            raise MeshError(f"the surface has {len(tips)} tips, no start of rank {rank}")
-        source = int(tips[rank])
+    edges, _ = unique_edges(faces)
+    best = radial.copy()
+    np.maximum.at(best, edges[:, 0], radial[edges[:, 1]])
+    np.maximum.at(best, edges[:, 1], radial[edges[:, 0]])
+    tips = np.flatnonzero(radial >= best)
+    tips = tips[np.argsort(-radial[tips], kind="stable")][:TIPS]
+    far = int(np.argmax(radial))  # the farthest vertex, even if a neighbour ties with it
+    return np.concatenate([[far], tips[tips != far]])[:TIPS].astype(np.int64)
+
+
+def _edges_from(
+    smooth: NDArray[np.float64], faces: NDArray[np.int64], source: int
+) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
+    """The source's neighbours, longest smoothed edge first, and the edges' lengths."""
     nbrs = np.unique(faces[np.any(faces == source, axis=1)])
     nbrs = nbrs[nbrs != source]
     length = np.linalg.norm(smooth[nbrs] - smooth[source], axis=1)
-    return source, int(nbrs[np.argmax(length)])
+    order = np.argsort(-length, kind="stable")
+    return nbrs[order], length[order]
+
+
+def _near_ties(
+    smooth: NDArray[np.float64], faces: NDArray[np.int64], tips: NDArray[np.int64]
+) -> tuple[int, ...]:
+    out = []
+    for t, source in enumerate(tips.tolist()):
+        _, length = _edges_from(smooth, faces, source)
+        if len(length) > 1 and length[1] >= (1.0 - EDGE_MARGIN) * length[0]:
+            out.append(TIPS + t)
+    return tuple(out)
+
+
+def _start(smooth: NDArray[np.float64], faces: NDArray[np.int64], rank: int = 0) -> tuple[int, int]:
+    """The starting half-edge of ``rank``: tip ``rank % TIPS`` (0: the farthest vertex from
+    the centroid), along its longest edge (``rank < TIPS``) or its second longest."""
+    tips = _tips(smooth, faces)
+    tip, alternative = rank % TIPS, rank // TIPS
+    if not 0 <= rank < 2 * TIPS or tip >= len(tips):
+        raise MeshError(f"the surface has {len(tips)} tips, no start of rank {rank}")
+    source = int(tips[tip])
+    nbrs, _ = _edges_from(smooth, faces, source)
+    if alternative >= len(nbrs):
+        raise MeshError(f"no start of rank {rank}: the tip has {len(nbrs)} neighbours")
+    return source, int(nbrs[alternative])
 
 
 def _canonical_faces(faces: NDArray[np.int64], rank: NDArray[np.int64]) -> NDArray[np.int64]:
@@ -278,7 +316,9 @@ def stable_cut(
         Start from the ``rank``-th farthest tip (a local maximum of the distance to the
         centroid on the smoothed copy) instead of the farthest: where two tips are nearly tied,
         the mark, noise or a few flips can swap them, and a reader then tries the runner-up
-        (:mod:`meshwm.readers.surface`).
+        (:mod:`meshwm.readers.surface`).  Ranks ``TIPS .. 2 * TIPS - 1`` start from tip
+        ``rank - TIPS`` along its second longest smoothed edge instead of its longest: where
+        the two are a near-tie (``StableCut.near_ties``) the mark can swap them too.
 
     Returns
     -------
@@ -293,6 +333,7 @@ def stable_cut(
     faces = np.asarray(faces, dtype=np.int64)
     smooth = smoothed_copy(vertices, faces, steps=steps, lam=lam)
     source, first = _start(smooth, faces, rank)
+    near_ties = _near_ties(smooth, faces, _tips(smooth, faces))
     order, parent = canonical_labelling(len(vertices), faces, source=source, first=first)
     label = np.empty_like(order)
     label[order] = np.arange(len(order))
@@ -305,4 +346,4 @@ def stable_cut(
             paths = [order[[-1, 0, 1]]]
     edges = np.sort(path_edges(paths), axis=1)
     edges = np.unique(edges, axis=0) if len(edges) else edges.reshape(0, 2)
-    return StableCut(cut_open(vertices, faces, paths), edges, order)
+    return StableCut(cut_open(vertices, faces, paths), edges, order, near_ties)

@@ -9,7 +9,8 @@ quantisation and similarities do not move.  The mesh is then sampled at every si
 each counts as a hypothesis).  The map's one geometric choice, the cut's start (the vertex
 farthest from the centroid on a smoothed copy), can be a near-tie that the mark or noise tips;
 the runner-up starts (:data:`meshwm.gim.surface.SURFACE_RANKS`) are offered too, mapped only if
-the decoder gets that far.  The decoder is also offered the received mesh with uniform
+the decoder gets that far, and so is the runner-up first edge of a tip whose two longest edges
+are a near-tie (:attr:`meshwm.gim.stable.StableCut.near_ties`: the genus-8 plate's corner).  The decoder is also offered the received mesh with uniform
 Laplacian smoothing undone, sampled the same way.
 """
 
@@ -62,7 +63,7 @@ def read_surface(
     -------
     LazyImages
         For each candidate start of :data:`~meshwm.gim.surface.SURFACE_RANKS` (the farthest
-        vertex first) one image per size of :data:`~meshwm.gim.surface.SURFACE_SIZES`, each
+        vertex first), then each near-tie start of the received mesh, one image per size of :data:`~meshwm.gim.surface.SURFACE_SIZES`, each
         one hypothesis; the maps of the runner-up starts are made only when asked for.
 
     Raises
@@ -83,9 +84,11 @@ def read_surface(
         except MeshError:  # a surface the map cannot open: nothing to read
             raise GridError(f"the surface cannot be mapped: {merged}") from merged
     surfaces: dict[int, Surface] = {SURFACE_RANKS[0]: first}
+    # Tips whose first edge is a near-tie are also started along the runner-up edge.
+    ranks = (*SURFACE_RANKS, *(r for r in first.map.cut.near_ties if r not in SURFACE_RANKS))
 
     def make(k: int) -> SampledImage:
-        rank = SURFACE_RANKS[k // len(SURFACE_SIZES)]
+        rank = ranks[k // len(SURFACE_SIZES)]
         if rank not in surfaces:
             try:
                 surfaces[rank] = remap_surface(first, first.positions, rank=rank)
@@ -100,4 +103,4 @@ def read_surface(
             smoothing_undone=lambda: _undone(surface.positions, surface.faces, image),
         )
 
-    return LazyImages(len(SURFACE_RANKS) * len(SURFACE_SIZES), make)
+    return LazyImages(len(ranks) * len(SURFACE_SIZES), make)
