@@ -57,13 +57,26 @@ from meshwm.errors import MeshError
 from meshwm.gim.cut import CutMesh, area_centroid, cut_open, path_edges
 from meshwm.mesh.clean import euler_characteristic, uniform_smoothing_operator, unique_edges
 
-__all__ = ["EDGE_MARGIN", "TIPS", "StableCut", "canonical_labelling", "smoothed_copy", "stable_cut"]
+__all__ = [
+    "EDGE_MARGIN",
+    "RADIAL_MARGIN",
+    "TIPS",
+    "StableCut",
+    "canonical_labelling",
+    "cut_start",
+    "smoothed_copy",
+    "stable_cut",
+]
 
 #: The tips (local maxima of the distance to the centroid) a start may be taken at.
 TIPS = 4
 #: Relative margin under which a tip's two longest smoothed edges are a near-tie (the genus-8
 #: plate's corner: 8e-4, which the mark crosses; the dev meshes: 5-40 %).
 EDGE_MARGIN = 0.03
+#: Relative gap in the distance to the centroid under which the next farthest vertex (a
+#: neighbour of the farthest, not a tip of its own) is a near-tie for the source: igea's top is
+#: flat, its three farthest vertices 6e-6 and 6e-5 apart, and 10 Laplacian steps swap them.
+RADIAL_MARGIN = 1e-4
 
 
 class StableCut(NamedTuple):
@@ -79,9 +92,10 @@ class StableCut(NamedTuple):
     order : (n,) int64 ndarray
         The canonical labelling: ``order[k]`` is the input vertex labelled ``k``.
     near_ties : tuple of int
-        The ranks ``TIPS + t`` (:func:`stable_cut`) whose start is a near-tie: tip ``t``'s two
-        longest smoothed edges within :data:`EDGE_MARGIN` of each other, so the mark or noise
-        may swap them; a reader tries those ranks too.
+        The ranks (:func:`stable_cut`) whose start is a near-tie of a start of rank < TIPS:
+        ``TIPS + t`` where tip ``t``'s two longest smoothed edges are within
+        :data:`EDGE_MARGIN` of each other, ``2 * TIPS + j`` where the ``j + 2``-th farthest
+        vertex is within :data:`RADIAL_MARGIN` of the farthest; a reader tries them too.
     """
 
     mesh: CutMesh
@@ -231,8 +245,15 @@ def canonical_labelling(
     return np.asarray(order, dtype=np.int64), np.asarray(parent, dtype=np.int64)
 
 
-def _tips(smooth: NDArray[np.float64], faces: NDArray[np.int64]) -> NDArray[np.int64]:
-    """Local maxima of the distance to the area centroid, farthest first (at most TIPS)."""
+class _Sources(NamedTuple):
+    """The candidate sources of a start, read off the smoothed copy."""
+
+    tips: NDArray[np.int64]  # local maxima of the radial distance, the farthest vertex first
+    runners: NDArray[np.int64]  # the next farthest vertices after it (its neighbours, mostly)
+    margin: NDArray[np.float64]  # each runner's relative radial gap to the farthest vertex
+
+
+def _sources(smooth: NDArray[np.float64], faces: NDArray[np.int64]) -> _Sources:
     radial = np.linalg.norm(smooth - area_centroid(smooth, faces), axis=1)
     edges, _ = unique_edges(faces)
     best = radial.copy()
@@ -241,7 +262,14 @@ def _tips(smooth: NDArray[np.float64], faces: NDArray[np.int64]) -> NDArray[np.i
     tips = np.flatnonzero(radial >= best)
     tips = tips[np.argsort(-radial[tips], kind="stable")][:TIPS]
     far = int(np.argmax(radial))  # the farthest vertex, even if a neighbour ties with it
-    return np.concatenate([[far], tips[tips != far]])[:TIPS].astype(np.int64)
+    tips = np.concatenate([[far], tips[tips != far]])[:TIPS].astype(np.int64)
+    used = np.unique(faces)
+    count = min(TIPS + 1, len(used))
+    top = used[np.argpartition(-radial[used], count - 1)[:count]]
+    top = top[np.lexsort((top, -radial[top]))]
+    runners = top[top != far][:TIPS].astype(np.int64)
+    margin = 1.0 - radial[runners] / radial[far] if radial[far] > 0 else np.ones(len(runners))
+    return _Sources(tips, runners, margin)
 
 
 def _edges_from(
@@ -256,28 +284,48 @@ def _edges_from(
 
 
 def _near_ties(
-    smooth: NDArray[np.float64], faces: NDArray[np.int64], tips: NDArray[np.int64]
+    smooth: NDArray[np.float64], faces: NDArray[np.int64], sources: _Sources
 ) -> tuple[int, ...]:
     out = []
-    for t, source in enumerate(tips.tolist()):
+    for t, source in enumerate(sources.tips.tolist()):
         _, length = _edges_from(smooth, faces, source)
         if len(length) > 1 and length[1] >= (1.0 - EDGE_MARGIN) * length[0]:
             out.append(TIPS + t)
+    out.extend(2 * TIPS + j for j in np.flatnonzero(sources.margin <= RADIAL_MARGIN).tolist())
     return tuple(out)
 
 
 def _start(smooth: NDArray[np.float64], faces: NDArray[np.int64], rank: int = 0) -> tuple[int, int]:
-    """The starting half-edge of ``rank``: tip ``rank % TIPS`` (0: the farthest vertex from
-    the centroid), along its longest edge (``rank < TIPS``) or its second longest."""
-    tips = _tips(smooth, faces)
-    tip, alternative = rank % TIPS, rank // TIPS
-    if not 0 <= rank < 2 * TIPS or tip >= len(tips):
-        raise MeshError(f"the surface has {len(tips)} tips, no start of rank {rank}")
-    source = int(tips[tip])
+    """The starting half-edge of ``rank`` (see :func:`stable_cut`)."""
+    sources = _sources(smooth, faces)
+    family, j = divmod(rank, TIPS)
+    pool = sources.runners if family == 2 else sources.tips
+    if not 0 <= rank < 3 * TIPS or j >= len(pool):
+        raise MeshError(f"the surface has {len(pool)} such sources, no start of rank {rank}")
+    source = int(pool[j])
     nbrs, _ = _edges_from(smooth, faces, source)
+    alternative = 1 if family == 1 else 0
     if alternative >= len(nbrs):
         raise MeshError(f"no start of rank {rank}: the tip has {len(nbrs)} neighbours")
     return source, int(nbrs[alternative])
+
+
+def cut_start(
+    vertices: NDArray[np.float64],
+    faces: NDArray[np.int64],
+    *,
+    steps: int = 50,
+    lam: float = 0.5,
+    rank: int = 0,
+) -> tuple[tuple[int, int], tuple[int, ...]]:
+    """The starting half-edge :func:`stable_cut` would use, and its ``near_ties``.
+
+    The cut and the labelling depend on the geometry through this half-edge only.
+    """
+    vertices = np.asarray(vertices, dtype=np.float64)
+    faces = np.asarray(faces, dtype=np.int64)
+    smooth = smoothed_copy(vertices, faces, steps=steps, lam=lam)
+    return _start(smooth, faces, rank), _near_ties(smooth, faces, _sources(smooth, faces))
 
 
 def _canonical_faces(faces: NDArray[np.int64], rank: NDArray[np.int64]) -> NDArray[np.int64]:
@@ -318,7 +366,10 @@ def stable_cut(
         the mark, noise or a few flips can swap them, and a reader then tries the runner-up
         (:mod:`meshwm.readers.surface`).  Ranks ``TIPS .. 2 * TIPS - 1`` start from tip
         ``rank - TIPS`` along its second longest smoothed edge instead of its longest: where
-        the two are a near-tie (``StableCut.near_ties``) the mark can swap them too.
+        the two are a near-tie (``StableCut.near_ties``) the mark can swap them too.  Ranks
+        ``2 * TIPS .. 3 * TIPS - 1`` start from the second, third, ... farthest vertex (along
+        its longest edge): where the farthest vertex has a neighbour within
+        :data:`RADIAL_MARGIN` of it, smoothing or quantisation can swap the two.
 
     Returns
     -------
@@ -331,9 +382,7 @@ def stable_cut(
     """
     vertices = np.asarray(vertices, dtype=np.float64)
     faces = np.asarray(faces, dtype=np.int64)
-    smooth = smoothed_copy(vertices, faces, steps=steps, lam=lam)
-    source, first = _start(smooth, faces, rank)
-    near_ties = _near_ties(smooth, faces, _tips(smooth, faces))
+    (source, first), near_ties = cut_start(vertices, faces, steps=steps, lam=lam, rank=rank)
     order, parent = canonical_labelling(len(vertices), faces, source=source, first=first)
     label = np.empty_like(order)
     label[order] = np.arange(len(order))

@@ -32,7 +32,7 @@ from meshwm._validate import DEFAULT_MAX_FACES, check_mesh
 from meshwm.errors import MeshError
 from meshwm.gim.holes import boundary_loops, fill_holes
 from meshwm.gim.sampling import sampling_matrix
-from meshwm.gim.tutte import StableMap, stable_parameterize
+from meshwm.gim.tutte import StableMap, restart_map, stable_parameterize
 from meshwm.mesh.clean import clean_mesh
 
 __all__ = [
@@ -132,6 +132,7 @@ def surface_of(
     max_faces: int = DEFAULT_MAX_FACES,
     rank: int = 0,
     merge: bool = True,
+    like: Surface | None = None,
 ) -> Surface:
     """Clean, weld and map a mesh (see the module notes).
 
@@ -147,6 +148,11 @@ def surface_of(
         Clean as described (default).  False: the connectivity as given, largest component,
         nothing merged: coarse quantisation makes distinct vertices coincide, and merging them
         can leave a surface that is no longer a manifold (the reader's second try).
+    like : Surface, optional
+        A surface of a mesh with the same faces (the input of an embedding, for its read-back):
+        where the cleaning, the filled holes and the cut's start come out the same, its cut
+        and map are reused, and the result is bit for bit what it would be without ``like``
+        (the cut and the map depend on nothing else: :mod:`meshwm.gim.stable`).
 
     Returns
     -------
@@ -164,7 +170,16 @@ def surface_of(
     positions, inverse = _distinct(v)
     clean = clean_mesh(v, f, max_faces=max_faces)
     to_position = _locate(positions, clean.vertices)
-    smap = _map_filled(clean.vertices, clean.faces, rank=rank)
+    reuse = None
+    if (
+        like is not None
+        and like.report.get("merged", True)
+        and np.array_equal(like.inverse, inverse)
+        and np.array_equal(like.clean_to_position, to_position)
+        and np.array_equal(like.faces, to_position[clean.faces])
+    ):
+        reuse = like.map
+    smap = _map_filled(clean.vertices, clean.faces, rank=rank, like=reuse)
     used = np.zeros(len(positions), dtype=bool)
     used[to_position] = True
     return Surface(
@@ -213,7 +228,13 @@ def remap_surface(surface: Surface, positions: NDArray, *, rank: int = 0) -> Sur
     return surface._replace(positions=p, map=smap)
 
 
-def _map_filled(vertices: NDArray[np.float64], faces: NDArray[np.int64], *, rank: int) -> StableMap:
+def _map_filled(
+    vertices: NDArray[np.float64],
+    faces: NDArray[np.int64],
+    *,
+    rank: int,
+    like: StableMap | None = None,
+) -> StableMap:
     """The stable map of a cleaned component with its holes filled (:mod:`meshwm.gim.holes`).
 
     A surface with small holes is a sphere, not a disk: mapped onto its longest hole as the
@@ -223,6 +244,12 @@ def _map_filled(vertices: NDArray[np.float64], faces: NDArray[np.int64], *, rank
     """
     filled = fill_holes(vertices, faces, boundary_loops(faces))
     points = np.concatenate([vertices, filled.centres]) if len(filled.centres) else vertices
+    if like is not None:
+        same = like.cut.mesh.origin[like.cut.mesh.faces]
+        if np.array_equal(same, filled.faces):
+            reused = restart_map(like, points, filled.faces, rank=rank)
+            if reused is not None:
+                return reused
     return stable_parameterize(points, filled.faces, rank=rank)
 
 

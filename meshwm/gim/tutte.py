@@ -23,10 +23,10 @@ import scipy.sparse as sp
 from numpy.typing import NDArray
 
 from meshwm.errors import MeshError
-from meshwm.gim.stable import StableCut, stable_cut
+from meshwm.gim.stable import StableCut, cut_start, stable_cut
 from meshwm.mesh.clean import unique_edges
 
-__all__ = ["StableMap", "boundary_loop", "stable_parameterize", "tutte_map"]
+__all__ = ["StableMap", "boundary_loop", "restart_map", "stable_parameterize", "tutte_map"]
 
 
 class StableMap(NamedTuple):
@@ -188,3 +188,38 @@ def stable_parameterize(
     label = np.empty_like(cut.order)
     label[cut.order] = np.arange(len(cut.order))
     return StableMap(cut, tutte_map(cut.mesh.faces, label[cut.mesh.origin]))
+
+
+def restart_map(
+    previous: StableMap,
+    vertices: NDArray[np.float64],
+    faces: NDArray[np.int64],
+    *,
+    steps: int = 50,
+    lam: float = 0.5,
+    rank: int = 0,
+) -> StableMap | None:
+    """``previous`` moved to new vertex positions, if :func:`stable_parameterize` would give
+    the same cut and map there; else None.
+
+    The cut and the map depend on the geometry only through the cut's starting half-edge
+    (:func:`meshwm.gim.stable.stable_cut`), so when ``faces`` are the ones ``previous`` was
+    made of and the start read off the new smoothed copy is the same, the result equals
+    ``stable_parameterize(vertices, faces, rank=rank)`` bit for bit, without the labelling,
+    the cut and the solve.
+
+    Parameters
+    ----------
+    previous : StableMap
+        A map of ``faces`` (with other positions).
+    vertices : (n, 3) float64 ndarray
+    faces : (m, 3) int64 ndarray
+        The faces ``previous`` was made of (not checked).
+    steps, lam, rank
+        As for :func:`stable_parameterize`.
+    """
+    start, near_ties = cut_start(vertices, faces, steps=steps, lam=lam, rank=rank)
+    if start != (int(previous.cut.order[0]), int(previous.cut.order[1])):
+        return None
+    mesh = previous.cut.mesh._replace(vertices=np.asarray(vertices)[previous.cut.mesh.origin])
+    return StableMap(previous.cut._replace(mesh=mesh, near_ties=near_ties), previous.uv)

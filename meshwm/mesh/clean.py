@@ -27,6 +27,10 @@ ties are broken by position, never by a random stream.
 
 from __future__ import annotations
 
+import contextlib
+import contextvars
+import hashlib
+from collections.abc import Iterator
 from typing import NamedTuple
 
 import igl
@@ -37,6 +41,8 @@ from scipy.sparse.csgraph import connected_components
 
 from meshwm._validate import DEFAULT_MAX_FACES, check_mesh
 from meshwm.errors import MeshError
+
+_SHARED: contextvars.ContextVar[dict | None] = contextvars.ContextVar("cleaning", default=None)
 
 __all__ = [
     "CleanMesh",
@@ -386,6 +392,21 @@ def largest_component(vertices: NDArray, faces: NDArray) -> tuple[NDArray, NDArr
     return mv, mf
 
 
+@contextlib.contextmanager
+def shared_cleaning() -> Iterator[None]:
+    """Within this context, :func:`clean_mesh` of the same arrays is computed once.
+
+    Several blind readers try one received mesh (:func:`meshwm.readers.read_all`), and each
+    cleans it; the cleaning is a pure function of the arrays, so they share it.  The arrays
+    handed out are read-only.
+    """
+    token = _SHARED.set({})
+    try:
+        yield
+    finally:
+        _SHARED.reset(token)
+
+
 def clean_mesh(
     vertices: NDArray, faces: NDArray, *, max_faces: int = DEFAULT_MAX_FACES, min_faces: int = 4
 ) -> CleanMesh:
@@ -415,8 +436,36 @@ def clean_mesh(
 
     Notes
     -----
+    Within :func:`shared_cleaning` the result for the same arrays is computed once (its arrays
+    are then read-only).
+
     No vertex is moved: positions are merged only when bit-identical and copied when split.
     """
+    memo = _SHARED.get()
+    if memo is None:
+        return _clean_mesh(vertices, faces, max_faces=max_faces, min_faces=min_faces)
+    v, f = check_mesh(vertices, faces, max_faces=max_faces)
+    key = (
+        v.shape,
+        f.shape,
+        hashlib.blake2b(np.ascontiguousarray(v).tobytes(), digest_size=16).digest(),
+        hashlib.blake2b(np.ascontiguousarray(f).tobytes(), digest_size=16).digest(),
+        int(max_faces),
+        int(min_faces),
+    )
+    if key not in memo:
+        out = _clean_mesh(v, f, max_faces=max_faces, min_faces=min_faces)
+        for a in (out.vertices, out.faces, out.other_vertices, out.other_faces):
+            a.flags.writeable = False
+        memo[key] = out
+    found: CleanMesh = memo[key]
+    return found._replace(report=dict(found.report))
+
+
+def _clean_mesh(
+    vertices: NDArray, faces: NDArray, *, max_faces: int = DEFAULT_MAX_FACES, min_faces: int = 4
+) -> CleanMesh:
+    """:func:`clean_mesh`, computed."""
     v, f = check_mesh(vertices, faces, max_faces=max_faces)
     report: dict = {"vertices_in": len(v), "faces_in": len(f)}
     v, f, merged = _merge_exact_duplicates(v, f)

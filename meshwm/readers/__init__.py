@@ -14,11 +14,12 @@ SampledImage`` (or a tuple of them, one per hypothesis it offers) that raises
 from __future__ import annotations
 
 import importlib
-from collections.abc import Sequence
-from typing import TYPE_CHECKING
+from collections.abc import Mapping, Sequence
+from typing import TYPE_CHECKING, Any
 
 from meshwm._validate import DEFAULT_MAX_FACES
 from meshwm.errors import GridError
+from meshwm.mesh.clean import shared_cleaning
 from meshwm.readers.base import SampledImage
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -61,12 +62,18 @@ def read_received(
 
 
 def read_all(
-    vertices: NDArray, faces: NDArray, *, max_faces: int = DEFAULT_MAX_FACES
+    vertices: NDArray,
+    faces: NDArray,
+    *,
+    max_faces: int = DEFAULT_MAX_FACES,
+    hints: Mapping[str, Mapping[str, Any]] | None = None,
 ) -> Sequence[SampledImage]:
     """Every image the first reader in :data:`READERS` that finds any offers.
 
     A reader may offer several images (the surface reader: one per size); the decoder tries
-    each and counts each as a hypothesis.
+    each and counts each as a hypothesis.  ``hints`` maps a reader's name to extra keyword
+    arguments for it that change its speed, never its result (the embedder's read-back hands
+    the surface reader the input's map: :func:`meshwm.gim.surface.surface_of`'s ``like``).
 
     Raises
     ------
@@ -75,10 +82,22 @@ def read_all(
     GridError
         No reader found a geometry image (every reader's message, in order).
     """
+    with shared_cleaning():  # every reader cleans the same mesh: once
+        return _read_all(vertices, faces, max_faces=max_faces, hints=hints)
+
+
+def _read_all(
+    vertices: NDArray,
+    faces: NDArray,
+    *,
+    max_faces: int,
+    hints: Mapping[str, Mapping[str, Any]] | None,
+) -> Sequence[SampledImage]:
     errors: list[str] = []
     for name in READERS:
         try:
-            found = get_reader(name)(vertices, faces, max_faces=max_faces)
+            extra = dict((hints or {}).get(name, {}))
+            found = get_reader(name)(vertices, faces, max_faces=max_faces, **extra)
         except GridError as exc:
             errors.append(f"{name}: {exc}")
             continue

@@ -10,7 +10,10 @@ each counts as a hypothesis).  The map's one geometric choice, the cut's start (
 farthest from the centroid on a smoothed copy), can be a near-tie that the mark or noise tips;
 the runner-up starts (:data:`meshwm.gim.surface.SURFACE_RANKS`) are offered too, mapped only if
 the decoder gets that far, and so is the runner-up first edge of a tip whose two longest edges
-are a near-tie (:attr:`meshwm.gim.stable.StableCut.near_ties`: the genus-8 plate's corner).  The decoder is also offered the received mesh with uniform
+are a near-tie (:attr:`meshwm.gim.stable.StableCut.near_ties`: the genus-8 plate's corner).
+Where the received mesh has coincident vertices, which the cleaning merges, the connectivity as
+given is offered too (quantisation makes vertices coincide, and merging them changes the
+connectivity the cut is made of).  The decoder is also offered the received mesh with uniform
 Laplacian smoothing undone, sampled the same way.
 """
 
@@ -48,7 +51,11 @@ def _undone(
 
 
 def read_surface(
-    vertices: NDArray, faces: NDArray, *, max_faces: int = DEFAULT_MAX_FACES
+    vertices: NDArray,
+    faces: NDArray,
+    *,
+    max_faces: int = DEFAULT_MAX_FACES,
+    like: Surface | None = None,
 ) -> LazyImages:
     """Sample a received mesh through its re-derived stable map, at every size and start.
 
@@ -58,13 +65,17 @@ def read_surface(
         The received mesh (any vertex and face order, any pose).
     max_faces : int, optional
         Refuse larger inputs.
+    like : Surface, optional
+        A speed hint, not information: the map of a mesh with the same faces, reused only
+        where it is provably the one this mesh gives (:func:`~meshwm.gim.surface.surface_of`).
 
     Returns
     -------
     LazyImages
         For each candidate start of :data:`~meshwm.gim.surface.SURFACE_RANKS` (the farthest
-        vertex first), then each near-tie start of the received mesh, one image per size of :data:`~meshwm.gim.surface.SURFACE_SIZES`, each
-        one hypothesis; the maps of the runner-up starts are made only when asked for.
+        vertex first), then each near-tie start of the received mesh, one image per size of
+        :data:`~meshwm.gim.surface.SURFACE_SIZES`, each one hypothesis; the maps of the
+        runner-up starts are made only when asked for.
 
     Raises
     ------
@@ -75,7 +86,7 @@ def read_surface(
     """
     v, f = check_mesh(vertices, faces, max_faces=max_faces)  # unusable arrays: MeshError
     try:
-        first = surface_of(v, f, max_faces=max_faces)
+        first = surface_of(v, f, max_faces=max_faces, like=like)
     except MeshError as merged:
         # Coarse quantisation makes distinct vertices coincide; merged, they can pinch the
         # surface into a non-manifold: read the connectivity as given instead.
@@ -83,18 +94,31 @@ def read_surface(
             first = surface_of(v, f, max_faces=max_faces, merge=False)
         except MeshError:  # a surface the map cannot open: nothing to read
             raise GridError(f"the surface cannot be mapped: {merged}") from merged
-    surfaces: dict[int, Surface] = {SURFACE_RANKS[0]: first}
+    surfaces: dict[tuple[bool, int], Surface] = {(False, SURFACE_RANKS[0]): first}
     # Tips whose first edge is a near-tie are also started along the runner-up edge.
     ranks = (*SURFACE_RANKS, *(r for r in first.map.cut.near_ties if r not in SURFACE_RANKS))
+    starts = [(False, r) for r in ranks]
+    if int(first.report.get("vertices_merged", 0)) > 0:
+        # Coincident vertices were merged: a UV seam welded back, or two vertices that coarse
+        # quantisation made coincide, which merged change the connectivity (igea at 10 bits:
+        # 16 merges move the cut).  The connectivity as given is offered too.
+        starts += [(True, r) for r in SURFACE_RANKS]
+
+    def surface_at(given: bool, rank: int) -> Surface:
+        if (given, rank) not in surfaces:
+            try:
+                if given and (True, SURFACE_RANKS[0]) not in surfaces:
+                    surfaces[(True, SURFACE_RANKS[0])] = surface_of(
+                        v, f, max_faces=max_faces, merge=False
+                    )
+                base = surfaces[(given, SURFACE_RANKS[0])]
+                surfaces[(given, rank)] = remap_surface(base, base.positions, rank=rank)
+            except MeshError:
+                surfaces[(given, rank)] = first  # no such start or surface: the first again
+        return surfaces[(given, rank)]
 
     def make(k: int) -> SampledImage:
-        rank = ranks[k // len(SURFACE_SIZES)]
-        if rank not in surfaces:
-            try:
-                surfaces[rank] = remap_surface(first, first.positions, rank=rank)
-            except MeshError:
-                surfaces[rank] = first  # no such start (a tiny mesh): the first map again
-        surface = surfaces[rank]
+        surface = surface_at(*starts[k // len(SURFACE_SIZES)])
         image = sample_surface(surface, size=SURFACE_SIZES[k % len(SURFACE_SIZES)])
         return SampledImage(
             samples=image.samples,
@@ -103,4 +127,4 @@ def read_surface(
             smoothing_undone=lambda: _undone(surface.positions, surface.faces, image),
         )
 
-    return LazyImages(len(ranks) * len(SURFACE_SIZES), make)
+    return LazyImages(len(starts) * len(SURFACE_SIZES), make)

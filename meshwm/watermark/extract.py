@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -125,6 +125,9 @@ class Decoder:
         As used for embedding (``size`` is ignored in favour of the N found).
     max_faces : int, optional
         Refuse larger inputs.
+    hints : mapping, optional
+        Per-reader keyword arguments that change a reader's speed, never what it reads
+        (:func:`meshwm.readers.read_all`).
 
     Raises
     ------
@@ -151,8 +154,9 @@ class Decoder:
         *,
         params: WatermarkParams | None = None,
         max_faces: int = DEFAULT_MAX_FACES,
+        hints: Mapping[str, Mapping[str, Any]] | None = None,
     ) -> None:
-        images = read_all(vertices, faces, max_faces=max_faces)
+        images = read_all(vertices, faces, max_faces=max_faces, hints=hints)
         params = params or WatermarkParams()
         if images[0].n != params.size:
             params = dataclasses.replace(params, size=images[0].n)

@@ -24,6 +24,7 @@ from typing import Any, NamedTuple
 import igl
 import numpy as np
 from numpy.typing import NDArray
+from scipy.spatial import cKDTree
 
 from meshwm.errors import CapacityError
 from meshwm.gim.sampling import Sampling
@@ -117,46 +118,77 @@ def normal_rms(
     return float(np.sqrt(np.sum(area * along**2) / area.sum())) / diag
 
 
+def _used(faces: NDArray[np.int64], n: int) -> NDArray[np.int64]:
+    """The positions some face uses, increasing (a count, not a sort)."""
+    return np.flatnonzero(np.bincount(np.asarray(faces, dtype=np.int64).ravel(), minlength=n))
+
+
 def surface_peak(
     positions: NDArray[np.float64], faces: NDArray[np.int64], displacement: NDArray[np.float64]
 ) -> float:
     """The largest vertex-to-surface distance between the mesh and the moved mesh, both ways,
     over the used vertices' bounding-box diagonal.
 
-    The vertex-sampled two-sided Hausdorff distance (``igl.point_mesh_squared_distance``, one
-    AABB tree each way): what MeshLab's Hausdorff filter measures, without its edge and face
-    samples.
+    The vertex-sampled two-sided Hausdorff distance: what MeshLab's Hausdorff filter measures,
+    without its edge and face samples (:func:`_vertex_distances`).
     """
-    used = np.unique(faces)
-    if len(used) == 0:
-        return 0.0
-    moved = positions + displacement
+    used = _used(faces, len(positions))
+    largest = float(np.linalg.norm(displacement[used], axis=1).max(initial=0.0))
+    # No vertex is farther than its own move: query the larger moves first, all if needed.
     pts = positions[used]
-    diag = float(np.linalg.norm(pts.max(axis=0) - pts.min(axis=0)))
+    diag = float(np.linalg.norm(pts.max(axis=0) - pts.min(axis=0))) if len(used) else 0.0
     if diag <= 0:
         return 0.0
-    f = np.asarray(faces, dtype=np.int64)
-    there = igl.point_mesh_squared_distance(moved[used], positions, f)[0]
-    back = igl.point_mesh_squared_distance(pts, moved, f)[0]
-    return float(np.sqrt(max(np.max(there), np.max(back)))) / diag
+    for fraction in (0.5, 0.0):
+        dist, _ = _vertex_distances(positions, faces, displacement, above=fraction * largest / diag)
+        if dist.max(initial=0.0) >= fraction * largest:
+            break
+    return float(dist.max(initial=0.0)) / diag
 
 
 def _vertex_distances(
-    positions: NDArray[np.float64], faces: NDArray[np.int64], displacement: NDArray[np.float64]
+    positions: NDArray[np.float64],
+    faces: NDArray[np.int64],
+    displacement: NDArray[np.float64],
+    *,
+    above: float = 0.0,
 ) -> tuple[NDArray[np.float64], float]:
     """Per position: the larger of its moved copy's distance to the input surface and its
-    input copy's distance to the moved surface (0 where unused); and the diagonal."""
-    used = np.unique(faces)
+    input copy's distance to the moved surface (0 where unused or moved at most ``above``
+    times the diagonal); and the used vertices' bounding-box diagonal.
+
+    Both distances are at most the vertex's own move (its other copy lies on the other
+    surface), so only vertices that moved more than ``above`` are queried, each against the
+    faces that can hold its nearest point: those with a corner within the largest move plus
+    the longest edge of a queried point (``scipy.spatial.cKDTree``, then
+    ``igl.point_mesh_squared_distance``).
+    """
+    f = np.asarray(faces, dtype=np.int64)
+    used = _used(f, len(positions))
     out = np.zeros(len(positions))
     pts = positions[used]
     diag = float(np.linalg.norm(pts.max(axis=0) - pts.min(axis=0))) if len(used) else 0.0
     if diag <= 0:
         return out, 0.0
-    f = np.asarray(faces, dtype=np.int64)
+    move = np.linalg.norm(displacement, axis=1)
+    ask = used[move[used] > above * diag]
+    if len(ask) == 0:
+        return out, diag
     moved = positions + displacement
-    there = igl.point_mesh_squared_distance(moved[used], positions, f)[0]
-    back = igl.point_mesh_squared_distance(pts, moved, f)[0]
-    out[used] = np.sqrt(np.maximum(there, back))
+    edge = max(
+        float(np.linalg.norm(p[f[:, k]] - p[f[:, (k + 1) % 3]], axis=1).max())
+        for p in (positions, moved)
+        for k in range(3)
+    )
+    reach = float(move[ask].max()) + edge
+    near = np.zeros(len(positions), dtype=bool)
+    for p in (positions, moved):
+        hits = cKDTree(p).query_ball_point(p[ask], r=reach, return_sorted=False)
+        near[np.concatenate([np.asarray(h, dtype=np.int64) for h in hits])] = True
+    sub = f[near[f].any(axis=1)]
+    there = igl.point_mesh_squared_distance(moved[ask], positions, sub)[0]
+    back = igl.point_mesh_squared_distance(positions[ask], moved, sub)[0]
+    out[ask] = np.sqrt(np.maximum(there, back))
     return out, diag
 
 
@@ -171,7 +203,7 @@ def _clamp_peaks(
     """
     d = np.array(displacement, dtype=np.float64)
     for _ in range(_PEAK_ROUNDS):
-        dist, diag = _vertex_distances(positions, faces, d)
+        dist, diag = _vertex_distances(positions, faces, d, above=_PEAK_AIM * KEEP_MAX_PEAK)
         cap = KEEP_MAX_PEAK * diag
         if diag <= 0 or dist.max() <= cap:
             break
@@ -307,7 +339,9 @@ def embed_kept(
             continue
         out = (surface.positions + attempt.displacement)[surface.inverse]
         # Read back as a blind reader will: the map re-derived from the marked mesh itself.
-        decoder = Decoder(out, faces, params=params, max_faces=max_faces)
+        # (The input's map is a speed hint: reused only where provably the same.)
+        hints = {"surface": {"like": surface}}
+        decoder = Decoder(out, faces, params=params, max_faces=max_faces, hints=hints)
         got, confidence, _ = decoder.decode(len(bits), key=key)
         ber, strength = float(np.mean(got != bits)), float(np.mean(np.abs(confidence)))
         tried[str(n)] = {"ber": ber, "confidence": strength}

@@ -7,8 +7,14 @@ import pytest
 
 from meshwm.attacks.transforms import noise
 from meshwm.errors import MeshError
-from meshwm.gim.stable import canonical_labelling, smoothed_copy, stable_cut
-from meshwm.gim.tutte import StableMap, boundary_loop, stable_parameterize, tutte_map
+from meshwm.gim.stable import TIPS, canonical_labelling, cut_start, smoothed_copy, stable_cut
+from meshwm.gim.tutte import (
+    StableMap,
+    boundary_loop,
+    restart_map,
+    stable_parameterize,
+    tutte_map,
+)
 
 MESHES = ["spot_mesh", "kitten_mesh", "plane_mesh"]  # closed genus 0, closed genus 1, 27 holes
 
@@ -147,3 +153,49 @@ def test_noise_keeps_the_cut_and_the_map(reference, name):
 def test_stable_cut_of_a_tetrahedron_is_a_disk():
     cut = stable_cut(TETRA_V, TETRA_F, steps=0)  # 50 steps shrink a tetrahedron to a point
     assert len(cut.edges) == 2 and len(cut.mesh.vertices) == 5  # the middle one split
+
+
+def test_cut_start_is_the_cuts_first_half_edge(reference):
+    for name in MESHES:
+        v, f, result = reference[name]
+        (source, first), near_ties = cut_start(v, f)
+        assert (source, first) == (int(result.cut.order[0]), int(result.cut.order[1]))
+        assert near_ties == result.cut.near_ties
+
+
+def test_a_near_tie_of_first_edges_is_offered_and_started_along_the_runner_up():
+    from meshwm.apps.bench.synthetic import make
+
+    v, f = make("genus8")  # the plate's corner tip: its two longest edges 8e-4 apart
+    cut = stable_cut(v, f)
+    assert TIPS in cut.near_ties  # tip 0's runner-up edge
+    other = stable_cut(v, f, rank=TIPS)
+    assert other.order[0] == cut.order[0] and other.order[1] != cut.order[1]
+    with pytest.raises(MeshError, match="no start of rank"):
+        stable_cut(v, f, rank=3 * TIPS)
+
+
+@pytest.mark.parametrize("name", MESHES)
+def test_restart_map_is_the_map_of_the_moved_mesh(reference, name):
+    v, f, result = reference[name]
+    rng = np.random.default_rng(11)
+    diag = np.linalg.norm(v.max(axis=0) - v.min(axis=0))
+    reused = 0
+    for k in range(6):  # small and mark-sized moves: reused exactly where the start holds
+        moved = v + rng.normal(size=v.shape) * (1e-7 if k < 3 else 2e-4) * diag
+        again = restart_map(result, moved, f)
+        fresh = stable_parameterize(moved, f)
+        if again is None:  # spot's tips are 8e-6 of the radius apart: a mark can swap them
+            assert (int(fresh.cut.order[0]), int(fresh.cut.order[1])) != (
+                int(result.cut.order[0]),
+                int(result.cut.order[1]),
+            )
+            continue
+        reused += 1
+        np.testing.assert_array_equal(again.uv, fresh.uv)
+        np.testing.assert_array_equal(again.cut.mesh.vertices, fresh.cut.mesh.vertices)
+        np.testing.assert_array_equal(again.cut.mesh.faces, fresh.cut.mesh.faces)
+        assert again.cut.near_ties == fresh.cut.near_ties
+    assert reused >= 3
+    # A start that moves (here: a different rank's) is not reused.
+    assert restart_map(result, v, f, rank=1) is None

@@ -634,3 +634,20 @@ def test_other_dtypes_and_lists_give_the_same_result(
     result = clean_mesh(vertices, faces)
     assert_array_equal(result.vertices, TETRA_V, strict=True)
     assert_array_equal(result.faces, TETRA_F, strict=True)
+
+
+def test_shared_cleaning_cleans_the_same_arrays_once(spot_mesh):
+    from meshwm.mesh import clean as clean_module
+
+    v, f = spot_mesh
+    plain = clean_module.clean_mesh(v, f)
+    with clean_module.shared_cleaning():
+        a = clean_module.clean_mesh(v, f)
+        b = clean_module.clean_mesh(v.copy(), f.copy())  # same content, other arrays
+        c = clean_module.clean_mesh(v + 1.0, f)
+    assert a.vertices is b.vertices and c.vertices is not a.vertices
+    assert not a.vertices.flags.writeable and a.report is not b.report
+    np.testing.assert_array_equal(a.vertices, plain.vertices)
+    np.testing.assert_array_equal(a.faces, plain.faces)
+    assert a.report == plain.report
+    assert clean_module.clean_mesh(v, f).vertices.flags.writeable  # outside: no sharing

@@ -68,3 +68,39 @@ def test_no_grid_and_bad_arrays_are_refused():
     with pytest.raises(MeshError):
         read_received(np.full((3, 3), np.nan), np.array([[0, 1, 2]]))
     assert_array_equal(read_connectivity(*geometry_image_to_mesh(_sheet())).missing, False)
+
+
+def test_surface_reader_offers_the_connectivity_as_given_when_vertices_coincide(spot_mesh):
+    from meshwm.attacks import apply_attack
+    from meshwm.gim.surface import SURFACE_RANKS, SURFACE_SIZES, surface_of
+    from meshwm.readers.surface import read_surface
+
+    v, f = spot_mesh
+    plain = read_surface(v, f)
+    near = surface_of(v, f).map.cut.near_ties
+    assert len(plain) == (len(SURFACE_RANKS) + len(near)) * len(SURFACE_SIZES)
+    sv, sf = apply_attack("split_seams", v, f, seed=3)  # copies of positions: merged on read
+    split = read_surface(sv, sf)
+    assert len(split) == len(plain) + len(SURFACE_RANKS) * len(SURFACE_SIZES)
+    # The merged reading is the input's; the extra ones are the split connectivity's own.
+    assert_array_equal(split[0].samples, plain[0].samples)
+    assert not np.array_equal(split[len(plain)].samples, plain[0].samples, equal_nan=True)
+
+
+def test_a_near_tie_of_the_farthest_vertex_is_offered():
+    from meshwm.gim.stable import TIPS, stable_cut
+
+    # An octahedron whose +x corner is 1e-5 farther out than the others: the other corners
+    # are its neighbours (not tips of their own) within RADIAL_MARGIN of it.
+    v = np.array([[1.00001, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1.0]])
+    f = np.array(
+        [[0, 2, 4], [2, 1, 4], [1, 3, 4], [3, 0, 4], [2, 0, 5], [1, 2, 5], [3, 1, 5], [0, 3, 5]]
+    )
+    cut = stable_cut(v, f, steps=0)
+    assert cut.order[0] == 0 and 2 * TIPS in cut.near_ties
+    runner = stable_cut(v, f, steps=0, rank=2 * TIPS)
+    assert runner.order[0] != 0  # the runner-up corner
+    clear = v.copy()
+    clear[0, 0] = 1.2
+    far = stable_cut(clear, f, steps=0)  # a clear winner: no near-tie
+    assert not any(r >= 2 * TIPS for r in far.near_ties)

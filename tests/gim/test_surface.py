@@ -1,0 +1,43 @@
+"""The mesh as a sampled surface: reusing a map where it is provably the same."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from meshwm.gim.surface import sample_surface, surface_of
+
+
+def _same(a, b) -> None:
+    np.testing.assert_array_equal(a.map.uv, b.map.uv)
+    np.testing.assert_array_equal(a.map.cut.edges, b.map.cut.edges)
+    np.testing.assert_array_equal(a.map.cut.order, b.map.cut.order)
+    np.testing.assert_array_equal(a.map.cut.mesh.vertices, b.map.cut.mesh.vertices)
+    np.testing.assert_array_equal(a.faces, b.faces)
+    assert a.map.cut.near_ties == b.map.cut.near_ties
+    ia, ib = sample_surface(a, size=128), sample_surface(b, size=128)
+    np.testing.assert_array_equal(ia.samples, ib.samples)
+
+
+@pytest.mark.parametrize("name", ["spot_mesh", "kitten_mesh", "plane_mesh"])
+def test_a_map_passed_as_like_changes_nothing(request, name):
+    v, f = request.getfixturevalue(name)
+    base = surface_of(v, f)
+    rng = np.random.default_rng(5)
+    diag = np.linalg.norm(v.max(axis=0) - v.min(axis=0))
+    for k in range(4):
+        if k < 3:  # a mark-sized move of the distinct positions (copies move together)
+            moved = base.positions + rng.normal(size=base.positions.shape) * 2e-4 * diag
+            w = moved[base.inverse]
+        else:  # a large move: the start changes and the map is made anew
+            w = v * np.array([1.0, 3.0, 0.2])
+        _same(surface_of(w, f, like=base), surface_of(w, f))
+
+
+def test_like_of_another_mesh_is_not_used(spot_mesh, kitten_mesh):
+    v, f = kitten_mesh
+    other = surface_of(*spot_mesh)
+    _same(surface_of(v, f, like=other), surface_of(v, f))
+    perm = np.random.default_rng(2).permutation(len(v))  # reordered: other inverse, no reuse
+    back = np.argsort(perm)
+    _same(surface_of(v[perm], back[f], like=surface_of(v, f)), surface_of(v[perm], back[f]))
