@@ -133,6 +133,7 @@ def surface_of(
     rank: int = 0,
     merge: bool = True,
     like: Surface | None = None,
+    min_used: int = 0,
 ) -> Surface:
     """Clean, weld and map a mesh (see the module notes).
 
@@ -148,6 +149,9 @@ def surface_of(
         Clean as described (default).  False: the connectivity as given, largest component,
         nothing merged: coarse quantisation makes distinct vertices coincide, and merging them
         can leave a surface that is no longer a manifold (the reader's second try).
+    min_used : int, optional
+        With ``merge=False``: refuse (``MeshError``) a largest component of fewer vertices (an
+        STL soup as given is one triangle per component).
     like : Surface, optional
         A surface of a mesh with the same faces (the input of an embedding, for its read-back):
         where the cleaning, the filled holes and the cut's start come out the same, its cut
@@ -166,7 +170,7 @@ def surface_of(
     """
     v, f = check_mesh(vertices, faces, max_faces=max_faces)
     if not merge:
-        return _as_given(v, f, rank=rank)
+        return _as_given(v, f, rank=rank, min_used=min_used)
     positions, inverse = _distinct(v)
     clean = clean_mesh(v, f, max_faces=max_faces)
     to_position = _locate(positions, clean.vertices)
@@ -187,7 +191,9 @@ def surface_of(
     )
 
 
-def _as_given(v: NDArray[np.float64], f: NDArray[np.int64], *, rank: int) -> Surface:
+def _as_given(
+    v: NDArray[np.float64], f: NDArray[np.int64], *, rank: int, min_used: int = 0
+) -> Surface:
     """:func:`surface_of` on the largest component as given: every vertex its own position."""
     n = len(v)
     edges = np.concatenate([f[:, [0, 1]], f[:, [1, 2]]])
@@ -197,6 +203,8 @@ def _as_given(v: NDArray[np.float64], f: NDArray[np.int64], *, rank: int) -> Sur
     main = int(np.argmax(np.bincount(face_label)))
     cf_in = f[face_label == main]
     index = np.unique(cf_in)  # the component's vertices, in the input's order
+    if len(index) < min_used:
+        raise MeshError(f"the largest component as given has {len(index)} vertices")
     cf = np.searchsorted(index, cf_in).astype(np.int64)
     used = np.zeros(n, dtype=bool)
     used[index] = True

@@ -108,8 +108,10 @@ def read_surface(
         if (given, rank) not in surfaces:
             try:
                 if given and (True, SURFACE_RANKS[0]) not in surfaces:
+                    # Only a connectivity that holds most of the merged surface (not a soup).
+                    least = int(first.used.sum()) // 2
                     surfaces[(True, SURFACE_RANKS[0])] = surface_of(
-                        v, f, max_faces=max_faces, merge=False
+                        v, f, max_faces=max_faces, merge=False, min_used=least
                     )
                 base = surfaces[(given, SURFACE_RANKS[0])]
                 surfaces[(given, rank)] = remap_surface(base, base.positions, rank=rank)
