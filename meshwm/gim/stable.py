@@ -295,9 +295,10 @@ def _near_ties(
     return tuple(out)
 
 
-def _start(smooth: NDArray[np.float64], faces: NDArray[np.int64], rank: int = 0) -> tuple[int, int]:
+def _start(
+    smooth: NDArray[np.float64], faces: NDArray[np.int64], rank: int, sources: _Sources
+) -> tuple[int, int]:
     """The starting half-edge of ``rank`` (see :func:`stable_cut`)."""
-    sources = _sources(smooth, faces)
     family, j = divmod(rank, TIPS)
     pool = sources.runners if family == 2 else sources.tips
     if not 0 <= rank < 3 * TIPS or j >= len(pool):
@@ -325,7 +326,8 @@ def cut_start(
     vertices = np.asarray(vertices, dtype=np.float64)
     faces = np.asarray(faces, dtype=np.int64)
     smooth = smoothed_copy(vertices, faces, steps=steps, lam=lam)
-    return _start(smooth, faces, rank), _near_ties(smooth, faces, _sources(smooth, faces))
+    sources = _sources(smooth, faces)
+    return _start(smooth, faces, rank, sources), _near_ties(smooth, faces, sources)
 
 
 def _canonical_faces(faces: NDArray[np.int64], rank: NDArray[np.int64]) -> NDArray[np.int64]:
