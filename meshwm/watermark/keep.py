@@ -62,8 +62,8 @@ _EXTRA_PASSES = 4
 #: edges and faces, stays under 0.15 % with it.  (The largest move along the vertex normals,
 #: used before, missed tangential moves across sharp edges: the genus-8 plate 0.31 %.)
 KEEP_MAX_PEAK = 1.3e-3
-#: Rounds of rescaling the step while the peak is over :data:`KEEP_MAX_PEAK` (the passes are
-#: not exactly linear in the step), each aiming a little under the cap.
+#: Rounds of shrinking the moves of the vertices over :data:`KEEP_MAX_PEAK` (:func:`_clamp_peaks`:
+#: a vertex's distance also depends on its neighbours' moves), each aiming a little under it.
 _PEAK_ROUNDS = 3
 _PEAK_AIM = 0.97
 #: The transfer's smoothness energy (:data:`meshwm.gim.transfer.ENERGIES`).
