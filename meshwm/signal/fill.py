@@ -29,10 +29,18 @@ def fill_missing(gim: NDArray) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
         raise ValueError("the geometry image has no samples")
     _, (ii, jj) = ndimage.distance_transform_edt(missing, return_indices=True)
     filled = gim[ii, jj]
+    # The sweeps touch the missing samples only: their four neighbours (clamped at the
+    # border, as an edge-padded image), summed in the same order as a whole-image sweep.
+    n0, n1 = missing.shape
+    mi, mj = np.nonzero(missing)
+    up = np.maximum(mi - 1, 0) * n1 + mj
+    down = np.minimum(mi + 1, n0 - 1) * n1 + mj
+    left = mi * n1 + np.maximum(mj - 1, 0)
+    right = mi * n1 + np.minimum(mj + 1, n1 - 1)
+    at = mi * n1 + mj
+    flat = filled.reshape(-1, filled.shape[-1])
     for _ in range(64):
-        padded = np.pad(filled, ((1, 1), (1, 1), (0, 0)), mode="edge")
-        avg = 0.25 * (padded[:-2, 1:-1] + padded[2:, 1:-1] + padded[1:-1, :-2] + padded[1:-1, 2:])
-        filled[missing] = avg[missing]
+        flat[at] = 0.25 * (flat[up] + flat[down] + flat[left] + flat[right])
     return filled, missing
 
 
