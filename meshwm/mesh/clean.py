@@ -393,14 +393,15 @@ def largest_component(vertices: NDArray, faces: NDArray) -> tuple[NDArray, NDArr
 
 
 @contextlib.contextmanager
-def shared_cleaning() -> Iterator[None]:
+def shared_cleaning(memo: dict | None = None) -> Iterator[None]:
     """Within this context, :func:`clean_mesh` of the same arrays is computed once.
 
     Several blind readers try one received mesh (:func:`meshwm.readers.read_all`), and each
     cleans it; the cleaning is a pure function of the arrays, so they share it.  The arrays
-    handed out are read-only.
+    handed out are read-only.  ``memo`` (a dict the context fills) shares the cleanings of
+    several such contexts: readers run one at a time, when a decoder first needs them.
     """
-    token = _SHARED.set({})
+    token = _SHARED.set({} if memo is None else memo)
     try:
         yield
     finally:

@@ -7,6 +7,9 @@ is a sub-package with its options (a frozen dataclass, light to import), its met
 command line's ``--profile`` choices, its help and the benchmark read.
 
 To add a profile: a sub-package like :mod:`meshwm.profiles.robust` and one entry here.
+
+:data:`CARRIERS` are schemes a user does not choose: the second carrier of a mesh kept as it
+is (:mod:`meshwm.profiles.radial`), whose images a reader marks with their ``scheme``.
 """
 
 from __future__ import annotations
@@ -16,9 +19,17 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:  # pragma: no cover
-    from meshwm.profiles.base import Profile
+    from meshwm.profiles.base import ImageDecoder, Profile
 
-__all__ = ["DEFAULT_PROFILE", "PROFILES", "ProfileInfo", "get_profile", "options_type"]
+__all__ = [
+    "CARRIERS",
+    "DEFAULT_PROFILE",
+    "PROFILES",
+    "ProfileInfo",
+    "get_decoder",
+    "get_profile",
+    "options_type",
+]
 
 
 @dataclass(frozen=True)
@@ -57,6 +68,10 @@ PROFILES: dict[str, ProfileInfo] = {
 #: The profile used unless another is asked for.
 DEFAULT_PROFILE = "robust"
 
+#: Decoders of images of their own kind, by the ``scheme`` a reader gives them: module path
+#: of an object ``DECODER``.
+CARRIERS: dict[str, str] = {"radial": "meshwm.profiles.radial.decoder"}
+
 
 def _info(name: str) -> ProfileInfo:
     if name not in PROFILES:
@@ -84,3 +99,19 @@ def get_profile(name: str) -> Profile:
     """
     profile: Profile = importlib.import_module(_info(name).package + ".profile").PROFILE
     return profile
+
+
+def get_decoder(scheme: str | None, profile: str) -> ImageDecoder:
+    """What decodes an image of ``scheme`` (a key of :data:`CARRIERS`), else ``profile``'s.
+
+    Examples
+    --------
+    >>> get_decoder(None, "paper").name, get_decoder("radial", "robust").name
+    ('paper', 'radial')
+    """
+    if scheme is None:
+        return get_profile(profile)
+    if scheme not in CARRIERS:
+        raise ValueError(f"unknown scheme {scheme!r}; valid: {', '.join(CARRIERS)}")
+    decoder: ImageDecoder = importlib.import_module(CARRIERS[scheme]).DECODER
+    return decoder

@@ -14,7 +14,7 @@ from numpy.typing import NDArray
 
 from meshwm.readers.base import SampledImage
 
-__all__ = ["Decoded", "Embedding", "Profile"]
+__all__ = ["Decoded", "Embedding", "ImageDecoder", "Profile"]
 
 
 class Embedding(NamedTuple):
@@ -61,29 +61,40 @@ class Decoded(NamedTuple):
     report: dict[str, Any]
 
 
-class Profile(Protocol):
-    """A watermarking scheme on geometry images (registered in :data:`meshwm.profiles.PROFILES`).
+class ImageDecoder(Protocol):
+    """What reads soft bits from a received image: a profile, or a carrier of its own.
 
     ``prepare`` does the key-independent work once, so that one received mesh can be decoded
     with many keys (a null study, a batch that tries several customers' keys).
     """
 
     name: str
-    options_type: type
     #: An upper bound on the ``hypotheses`` :meth:`decode` reports for one image: a decoder
     #: that stops before trying every image a reader offered counts the rest at this.
     max_hypotheses: int
-
-    def embed(
-        self, gim: NDArray[np.float64], bits: NDArray[np.uint8], *, key: str | bytes, options: Any
-    ) -> Embedding:
-        """Embed ``bits`` into the cover ``gim`` under ``key``."""
-        ...
 
     def prepare(self, image: SampledImage, *, options: Any) -> Any:
         """The key-independent analysis of a received image."""
         ...
 
-    def decode(self, prepared: Any, n_bits: int, *, key: str | bytes) -> Decoded:
-        """``n_bits`` soft bits of a prepared image, under ``key``."""
+    def decode(
+        self, prepared: Any, n_bits: int, *, key: str | bytes, thorough: bool = True
+    ) -> Decoded:
+        """``n_bits`` soft bits of a prepared image, under ``key``.
+
+        ``thorough=False`` tries only the image as received (and what is as cheap); a decoder
+        with costly candidates (the robust profile's smoothing undone) tries them with True.
+        """
+        ...
+
+
+class Profile(ImageDecoder, Protocol):
+    """A watermarking scheme on geometry images (registered in :data:`meshwm.profiles.PROFILES`)."""
+
+    options_type: type
+
+    def embed(
+        self, gim: NDArray[np.float64], bits: NDArray[np.uint8], *, key: str | bytes, options: Any
+    ) -> Embedding:
+        """Embed ``bits`` into the cover ``gim`` under ``key``."""
         ...

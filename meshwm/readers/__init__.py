@@ -7,8 +7,10 @@ which the detection decision counts.  The decoder of every profile takes its out
 :data:`READERS`; the first that finds an image wins.
 
 To add a reader: one module with a function ``read_x(vertices, faces, *, max_faces) ->
-SampledImage`` (or a tuple of them, one per hypothesis it offers) that raises
-:class:`meshwm.errors.GridError` when it finds nothing, and one entry in :data:`READERS`.
+SampledImage`` (or a sequence of them, one per hypothesis it offers) that raises
+:class:`meshwm.errors.GridError` when it finds nothing, a constant ``MOST_IMAGES`` (the most
+images it offers), optionally ``EXCLUDES`` (readers not to run once it found an image), and one
+entry in :data:`READERS`.
 """
 
 from __future__ import annotations
@@ -17,21 +19,24 @@ import importlib
 from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
-from meshwm._validate import DEFAULT_MAX_FACES
+from meshwm._validate import DEFAULT_MAX_FACES, check_mesh
 from meshwm.errors import GridError
 from meshwm.mesh.clean import shared_cleaning
-from meshwm.readers.base import SampledImage
+from meshwm.readers.base import ChainedImages, SampledImage
 
 if TYPE_CHECKING:  # pragma: no cover
     from numpy.typing import NDArray
 
     from meshwm.readers.base import Reader
 
-__all__ = ["READERS", "get_reader", "read_all", "read_received"]
+__all__ = ["READERS", "get_reader", "most_images", "read_all", "read_received"]
 
-#: Blind readers, in the order they are tried: name -> "module:function".
+#: Blind readers, in the order they are tried: name -> "module:function".  The grid meshwm
+#: writes (``--grid``) first; then, for a mesh kept as it is, the spherical image of its
+#: vertices (cheap, and unmoved by edits of the connectivity), then its surface map.
 READERS: dict[str, str] = {
     "connectivity": "meshwm.readers.connectivity:read_connectivity",
+    "radial": "meshwm.readers.radial:read_radial",
     "surface": "meshwm.readers.surface:read_surface",
 }
 
@@ -43,6 +48,19 @@ def get_reader(name: str) -> Reader:
     module, function = READERS[name].split(":")
     reader: Reader = getattr(importlib.import_module(module), function)
     return reader
+
+
+def most_images(name: str) -> int:
+    """The most images the reader ``name`` offers (its module's ``MOST_IMAGES``)."""
+    module = READERS[name].split(":")[0]
+    return int(importlib.import_module(module).MOST_IMAGES)
+
+
+def _declared(name: str, attribute: str, default: Any) -> Any:
+    """A reader module's constant (``EXCLUDES``: readers not to run once it found an image;
+    ``SCHEME``: what decodes its images)."""
+    module = READERS[name].split(":")[0]
+    return getattr(importlib.import_module(module), attribute, default)
 
 
 def read_received(
@@ -67,13 +85,18 @@ def read_all(
     *,
     max_faces: int = DEFAULT_MAX_FACES,
     hints: Mapping[str, Mapping[str, Any]] | None = None,
-) -> Sequence[SampledImage]:
-    """Every image the first reader in :data:`READERS` that finds any offers.
+    readers: Sequence[str] | None = None,
+) -> ChainedImages:
+    """Every image the readers of :data:`READERS` offer, in order, each reader run lazily.
 
-    A reader may offer several images (the surface reader: one per size); the decoder tries
-    each and counts each as a hypothesis.  ``hints`` maps a reader's name to extra keyword
-    arguments for it that change its speed, never its result (the embedder's read-back hands
-    the surface reader the input's map: :func:`meshwm.gim.surface.surface_of`'s ``like``).
+    A reader may offer several images (the surface reader: one per size and start); the decoder
+    tries them in order, counts each as a hypothesis, and runs a reader only when it gets to
+    its images.  ``hints`` maps a reader's name to extra keyword arguments for it that change
+    its speed, never its result (the embedder's read-back hands the surface reader the input's
+    map: :func:`meshwm.gim.surface.surface_of`'s ``like``).  The readers share one cleaning of
+    the mesh (:func:`meshwm.mesh.clean.shared_cleaning`).  ``readers`` (names, kept in
+    :data:`READERS`' order) limits the readers tried: the embedder checks each carrier on its
+    own.
 
     Raises
     ------
@@ -82,25 +105,30 @@ def read_all(
     GridError
         No reader found a geometry image (every reader's message, in order).
     """
-    with shared_cleaning():  # every reader cleans the same mesh: once
-        return _read_all(vertices, faces, max_faces=max_faces, hints=hints)
+    check_mesh(vertices, faces, max_faces=max_faces)  # unusable arrays: MeshError, up front
+    memo: dict = {}
 
-
-def _read_all(
-    vertices: NDArray,
-    faces: NDArray,
-    *,
-    max_faces: int,
-    hints: Mapping[str, Mapping[str, Any]] | None,
-) -> Sequence[SampledImage]:
-    errors: list[str] = []
-    for name in READERS:
-        try:
+    def runner(name: str) -> Any:
+        def run() -> SampledImage | Sequence[SampledImage]:
             extra = dict((hints or {}).get(name, {}))
-            found = get_reader(name)(vertices, faces, max_faces=max_faces, **extra)
-        except GridError as exc:
-            errors.append(f"{name}: {exc}")
-            continue
-        # A SampledImage is a NamedTuple itself: test for it, not for tuple.
-        return (found,) if isinstance(found, SampledImage) else found
-    raise GridError("; ".join(errors))
+            with shared_cleaning(memo):
+                found: SampledImage | Sequence[SampledImage] = get_reader(name)(
+                    vertices, faces, max_faces=max_faces, **extra
+                )
+            return found
+
+        return run
+
+    names = [name for name in READERS if readers is None or name in readers]
+    unknown = sorted(set(readers or ()) - set(READERS))
+    if unknown:
+        raise ValueError(f"unknown readers {unknown}; valid: {', '.join(READERS)}")
+    chain = ChainedImages(
+        [(n, runner(n), most_images(n), _declared(n, "SCHEME", None)) for n in names],
+        excludes={n: _declared(n, "EXCLUDES", ()) for n in names},
+    )
+    try:
+        chain[0]
+    except IndexError:
+        raise GridError("; ".join(chain.errors)) from None
+    return chain

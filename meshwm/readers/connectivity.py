@@ -20,6 +20,8 @@ from meshwm.mesh.clean import clean_mesh, uniform_smoothing_operator
 from meshwm.readers.base import SampledImage
 
 __all__ = [
+    "EXCLUDES",
+    "MOST_IMAGES",
     "UNSMOOTH_LAMBDA",
     "UNSMOOTH_STEPS",
     "read_connectivity",
@@ -34,6 +36,11 @@ UNSMOOTH_LAMBDA = 0.1
 #: The k offered (0 is the mesh as received).
 UNSMOOTH_STEPS = tuple(range(0, 65, 5))
 _FIXED_POINT = 8
+#: The images this reader offers: one grid.
+MOST_IMAGES = 1
+#: A meshwm grid (``--grid``) carries no surface-map mark: once one is found, the surface
+#: reader (costly on a 65k-vertex grid) is not run; the radial reader still is.
+EXCLUDES = ("surface",)
 
 
 def read_grid(

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import time
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -16,8 +16,8 @@ from meshwm.message.payload import PAYLOAD_BITS, decode_id, encode_id
 from meshwm.message.scramble import arnold_scramble, arnold_unscramble
 from meshwm.metrics import bit_error_rate, correlation2
 from meshwm.params import WatermarkParams
-from meshwm.profiles import get_profile
-from meshwm.profiles.base import Decoded
+from meshwm.profiles import get_decoder, get_profile
+from meshwm.profiles.base import Decoded, ImageDecoder
 from meshwm.profiles.robust.search import UNSMOOTH_BELOW
 from meshwm.readers import read_all
 from meshwm.readers.base import SampledImage
@@ -92,6 +92,15 @@ def extract_gim(
     return Extracted(mark, found.bits, found.confidence, found.report)
 
 
+#: How many of the images that read strongest as received are decoded again with
+#: every candidate (the robust profile's smoothing undone): a smoothed mark reads weakly as
+#: received, but still more strongly through its own map than through the others.
+THOROUGH_IMAGES = 3
+#: An id's code is accepted by :meth:`Decoder.reads` with this fraction of its bits wrong, if
+#: the id still decodes (Reed-Solomon corrects them); a mark must read back whole.
+_ID_SLACK = 0.02
+
+
 def _clean(found: Decoded) -> bool:
     """A read no other image could beat: every vote as strong as an unattacked read's."""
     return float(np.mean(np.abs(found.confidence))) >= UNSMOOTH_BELOW
@@ -128,6 +137,8 @@ class Decoder:
     hints : mapping, optional
         Per-reader keyword arguments that change a reader's speed, never what it reads
         (:func:`meshwm.readers.read_all`).
+    readers : sequence of str, optional
+        Only these readers (names of :data:`meshwm.readers.READERS`); default all.
 
     Raises
     ------
@@ -155,50 +166,76 @@ class Decoder:
         params: WatermarkParams | None = None,
         max_faces: int = DEFAULT_MAX_FACES,
         hints: Mapping[str, Mapping[str, Any]] | None = None,
+        readers: Sequence[str] | None = None,
     ) -> None:
-        images = read_all(vertices, faces, max_faces=max_faces, hints=hints)
+        images = read_all(vertices, faces, max_faces=max_faces, hints=hints, readers=readers)
         params = params or WatermarkParams()
         if images[0].n != params.size:
             params = dataclasses.replace(params, size=images[0].n)
-        #: Every image the reader re-derived (:class:`meshwm.readers.base.SampledImage`); the
-        #: decoder tries each (a reader that samples at several sizes offers several).
+        #: Every image the readers re-derive (:class:`meshwm.readers.base.SampledImage`), made
+        #: as the decoder gets to them; the decoder tries each (a reader that samples at several
+        #: sizes or starts offers several).
         self.images = images
         #: The first of them.
         self.image = images[0]
         #: The parameters used (``size`` is the first N found).
         self.params = params
-        self._profile = get_profile(params.profile)
         self._prepared: dict[int, Any] = {}
+        self._hypotheses: int | None = None
+
+    def _decoder(self, scheme: str | None) -> ImageDecoder:
+        return get_decoder(scheme, self.params.profile)
 
     def _prepare(self, k: int) -> Any:
         if k not in self._prepared:
-            self._prepared[k] = self._profile.prepare(self.images[k], options=self.params.options)
+            image = self.images[k]
+            decoder = self._decoder(image.scheme)
+            self._prepared[k] = decoder.prepare(image, options=self.params.options)
         return self._prepared[k]
+
+    @property
+    def hypotheses(self) -> int:
+        """Every hypothesis the decoder can try on this mesh: over all the images the readers
+        can offer, each image's count times its decoder's most (candidates × gains).
+
+        The Bonferroni correction divides the false-positive budget by this, whatever was
+        actually tried before a read was accepted (:meth:`meshwm.readers.base.ChainedImages.bound`):
+        the count depends on the mesh alone.
+        """
+        if self._hypotheses is None:
+            self._hypotheses = self.images.bound(lambda s: self._decoder(s).max_hypotheses)
+        return self._hypotheses
 
     def _decode_all(
         self, n_bits: int, *, key: str | bytes, enough: Callable[[Decoded], bool] | None = None
     ) -> tuple[list[_Try], int]:
-        """The images decoded in the reader's order, strongest first, and their hypotheses.
+        """The images decoded, strongest first, and :attr:`hypotheses`.
 
-        With ``enough``, decoding stops at the first image it accepts; each image not decoded
-        then counts the profile's ``max_hypotheses``, so stopping early never makes the
-        false-positive threshold laxer than trying them all.
+        First every image as received (the robust profile: as received and despiked), in the
+        readers' order; then the :data:`THOROUGH_IMAGES` strongest of them again with every
+        candidate their decoder has (the robust profile: smoothing undone).  With ``enough``,
+        decoding stops at the first read it accepts.
         """
-        hypotheses = 0
-        tried = []
-        count = len(self.images)
-        for k in range(count):
-            image = self.images[k]
-            found = self._profile.decode(self._prepare(k), n_bits, key=key)
-            hypotheses += image.hypotheses * int(found.report.get("hypotheses", 1))
+        tried: list[_Try] = []
+        for k, image in enumerate(self.images):
+            found = self._decoder(image.scheme).decode(
+                self._prepare(k), n_bits, key=key, thorough=False
+            )
             tried.append(_Try(float(np.mean(np.abs(found.confidence))), image, found))
             if enough is not None and enough(found):
-                of = getattr(self.images, "hypotheses_of", lambda j: self.images[j].hypotheses)
-                rest = sum(of(j) for j in range(k + 1, count))
-                hypotheses += rest * self._profile.max_hypotheses
+                return sorted(tried, key=lambda t: -t.strength), self.hypotheses
+        strongest = sorted(range(len(tried)), key=lambda i: -tried[i].strength)
+        for k in strongest[:THOROUGH_IMAGES]:
+            image = tried[k].image
+            found = self._decoder(image.scheme).decode(
+                self._prepare(k), n_bits, key=key, thorough=True
+            )
+            strength = float(np.mean(np.abs(found.confidence)))
+            if strength > tried[k].strength:
+                tried[k] = _Try(strength, image, found)
+            if enough is not None and enough(found):
                 break
-        tried.sort(key=lambda t: -t.strength)
-        return tried, hypotheses
+        return sorted(tried, key=lambda t: -t.strength), self.hypotheses
 
     @staticmethod
     def _result(chosen: _Try, hypotheses: int) -> tuple[NDArray, NDArray, dict[str, Any]]:
@@ -217,6 +254,29 @@ class Decoder:
         """
         tried, hypotheses = self._decode_all(n_bits, key=key, enough=_clean)
         return self._result(tried[0], hypotheses)
+
+    def reads(self, bits: NDArray[np.uint8], *, key: str | bytes) -> tuple[bool, float]:
+        """Whether some image decodes to exactly ``bits`` (or, for an id's code, to that id
+        with at most 2 % of its code bits wrong), and the least bit error rate found.
+
+        Decoding stops at the first image that does: the embedder's check of its output.
+        """
+        bits = np.asarray(bits, dtype=np.uint8)
+        ident = decode_id(bits) if len(bits) == PAYLOAD_BITS else None
+
+        def accept(found: Decoded) -> bool:
+            wrong = float(np.mean(found.bits != bits))
+            if wrong == 0:
+                return True
+            return (
+                ident is not None
+                and wrong <= _ID_SLACK
+                and decode_id(found.bits, found.confidence) == ident
+            )
+
+        tried, _ = self._decode_all(len(bits), key=key, enough=accept)
+        errors = [float(np.mean(t.found.bits != bits)) for t in tried]
+        return any(accept(t.found) for t in tried), min(errors)
 
     def extract(
         self, *, key: str | bytes, mark_size: int = 32, expected: NDArray | None = None

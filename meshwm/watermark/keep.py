@@ -26,16 +26,16 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial import cKDTree
 
-from meshwm.errors import CapacityError
+from meshwm.errors import CapacityError, MeshError
 from meshwm.gim.sampling import Sampling
 from meshwm.gim.surface import SURFACE_SIZES, Surface, SurfaceImage, sample_surface, surface_of
 from meshwm.gim.transfer import Transfer
-from meshwm.message.payload import PAYLOAD_BITS, decode_id
 from meshwm.params import WatermarkParams
 from meshwm.profiles import get_profile
 from meshwm.readers.base import SampledImage
 from meshwm.signal.fill import fill_missing
 from meshwm.watermark.extract import Decoder
+from meshwm.watermark.radial import RADIAL_PASSES, embed_radial, radial_read, radial_size
 
 __all__ = [
     "KEEP_MAX_PEAK",
@@ -52,9 +52,6 @@ KEEP_PASSES = 3
 #: (dithered quantisation moves a coefficient by a uniform fraction of its step, so the
 #: distortion is nearly proportional to the step: one correction lands within a few percent).
 _CALIBRATION_ROUNDS = 1
-#: An id's code (Reed-Solomon) is accepted with this fraction of its bits wrong when read back,
-#: if the id still decodes; a mark must read back whole.
-_ID_SLACK = 0.02
 #: Passes beyond :data:`KEEP_PASSES` while the mesh does not yet read back every bit.
 _EXTRA_PASSES = 4
 #: The largest vertex-to-surface distance allowed between the input and the output, over the
@@ -70,6 +67,8 @@ _PEAK_AIM = 0.97
 KEEP_ENERGY = "dirichlet"
 #: Least-squares refinement passes of each transfer (the outer passes refine too).
 _TRANSFER_PASSES = 1
+#: Radial passes after a peak clamp moved a projection off its lattice point.
+_RADIAL_REPAIRS = 2
 
 
 class KeptMark(NamedTuple):
@@ -226,6 +225,39 @@ class _Attempt(NamedTuple):
     report: dict[str, Any]
 
 
+def _carry_radial(
+    positions: NDArray[np.float64],
+    faces: NDArray[np.int64],
+    clamp_faces: NDArray[np.int64],
+    displacement: NDArray[np.float64],
+    bits: NDArray[np.uint8],
+    *,
+    key: str | bytes,
+) -> tuple[NDArray[np.float64], dict[str, Any]]:
+    """The radial carrier on top of ``displacement``, then the peaks clamped (see module notes).
+
+    ``faces`` are the input's faces over ``positions`` (every component: the radial carrier
+    reads the whole point set); ``clamp_faces`` the surface whose peaks are capped.  A clamp
+    that moves a projection off its lattice point is followed by one more radial pass.
+    """
+    n = radial_size(len(bits))
+    d = np.array(displacement, dtype=np.float64)
+    report: dict[str, Any] = {"radial_n": n}
+    passes = RADIAL_PASSES
+    for _ in range(1 + _RADIAL_REPAIRS):
+        try:
+            mark = embed_radial(positions + d, faces, bits, key=key, n=n, passes=passes)
+        except MeshError as exc:  # no pose (a flat point set): the surface carrier alone
+            return _clamp_peaks(positions, clamp_faces, d), {"radial_n": None, "radial": str(exc)}
+        d = _clamp_peaks(positions, clamp_faces, mark.vertices - positions)
+        got, _, _ = radial_read(positions + d, faces, len(bits), key=key, n=n)
+        report["radial_ber"] = float(np.mean(got != bits))
+        if report["radial_ber"] == 0:
+            break
+        passes = 1
+    return d, report
+
+
 def _mark_at(
     surface: Surface,
     image: SurfaceImage,
@@ -233,8 +265,10 @@ def _mark_at(
     *,
     key: str | bytes,
     params: WatermarkParams,
+    faces_in: NDArray[np.int64],
 ) -> _Attempt:
-    """Embed at one size: calibrate the step on the input's distortion, then passes."""
+    """Embed at one size: calibrate the step on the input's distortion, then passes; then the
+    radial carrier and the peak clamp (:func:`_carry_radial`)."""
     profile = get_profile(params.profile)
     positions = surface.positions
     faces = surface.faces
@@ -281,7 +315,8 @@ def _mark_at(
     else:
         opts = options
     d, rep = run(opts, until_read=True)
-    d = _clamp_peaks(positions, faces, d)
+    d, radial = _carry_radial(positions, surface.inverse[faces_in], faces, d, bits, key=key)
+    report.update(radial)
     peak = surface_peak(positions, faces, d)
     report.update(rep)
     report["step"] = step
@@ -333,7 +368,9 @@ def embed_kept(
     for n in _size_order(sizes, len(bits)):
         image = sample_surface(surface, size=n)
         try:
-            attempt = _mark_at(surface, image, bits, key=key, params=params)
+            attempt = _mark_at(
+                surface, image, bits, key=key, params=params, faces_in=np.asarray(faces, np.int64)
+            )
         except CapacityError as exc:
             tried[str(n)] = str(exc)
             continue
@@ -341,11 +378,12 @@ def embed_kept(
         # Read back as a blind reader will: the map re-derived from the marked mesh itself.
         # (The input's map is a speed hint: reused only where provably the same.)
         hints = {"surface": {"like": surface}}
-        decoder = Decoder(out, faces, params=params, max_faces=max_faces, hints=hints)
-        got, confidence, _ = decoder.decode(len(bits), key=key)
-        ber, strength = float(np.mean(got != bits)), float(np.mean(np.abs(confidence)))
-        tried[str(n)] = {"ber": ber, "confidence": strength}
-        if ber == 0 or (ber <= _ID_SLACK and _id_reads(decoder, bits, key)):
+        decoder = Decoder(
+            out, faces, params=params, max_faces=max_faces, hints=hints, readers=("surface",)
+        )
+        ok, ber = decoder.reads(bits, key=key)
+        tried[str(n)] = {"ber": ber}
+        if ok:
             report = {**attempt.report, "n": n, "sizes_tried": tried, **_clean_counts(surface)}
             return KeptMark(out, report)
         worst = min(worst, ber)
@@ -365,13 +403,6 @@ def _size_order(sizes: tuple[int, ...], n_bits: int) -> list[int]:
     ordered = sorted(sizes)
     first = next((n for n in ordered if 9 * (n // 8) ** 2 >= 8 * n_bits), ordered[-1])
     return [first, *(n for n in ordered if n != first)]
-
-
-def _id_reads(decoder: Decoder, bits: NDArray[np.uint8], key: str | bytes) -> bool:
-    """Whether ``bits`` are an id's code and the blind decoder reads that id back."""
-    if len(bits) != PAYLOAD_BITS or (ident := decode_id(bits)) is None:
-        return False
-    return decoder.extract_id(key=key).id == ident
 
 
 def _clean_counts(surface: Surface) -> dict[str, Any]:

@@ -61,10 +61,18 @@ def test_smoothing_undone_inverts_uniform_laplacian_steps():
 
 def test_no_grid_and_bad_arrays_are_refused():
     rng = np.random.default_rng(0)
-    v = rng.normal(size=(40, 3))
-    f = rng.integers(0, 40, size=(30, 3))
-    with pytest.raises((GridError, MeshError)):
-        read_received(v, f)
+    v = rng.normal(size=(400, 3))
+    f = rng.integers(0, 400, size=(300, 3))
+    # A random soup is no grid and no surface; its points still have a spherical image.
+    for name in ("connectivity", "surface"):
+        with pytest.raises((GridError, MeshError)):
+            get_reader(name)(v, f, max_faces=10**6)
+    assert read_received(v, f).reader == "radial"
+    flat = v * [1.0, 1.0, 0.0]  # a flat one has not even that, nor a small one
+    with pytest.raises(GridError, match="plane"):
+        read_received(flat, f)
+    with pytest.raises(GridError, match="too few"):
+        read_received(v, f % 40)
     with pytest.raises(MeshError):
         read_received(np.full((3, 3), np.nan), np.array([[0, 1, 2]]))
     assert_array_equal(read_connectivity(*geometry_image_to_mesh(_sheet())).missing, False)
@@ -104,3 +112,25 @@ def test_a_near_tie_of_the_farthest_vertex_is_offered():
     clear[0, 0] = 1.2
     far = stable_cut(clear, f, steps=0)  # a clear winner: no near-tie
     assert not any(r >= 2 * TIPS for r in far.near_ties)
+
+
+def test_readers_run_lazily_and_an_early_stop_counts_what_it_skipped(spot_mesh):
+    from meshwm.message.payload import encode_id
+    from meshwm.watermark import Decoder
+    from meshwm.watermark.radial import embed_radial
+
+    assert list(READERS) == ["connectivity", "radial", "surface"]
+    v, f = spot_mesh
+    ident = bytes.fromhex("00112233aabbccdd")
+    marked = embed_radial(v, f, encode_id(ident), key="k").vertices
+    decoder = Decoder(marked, f)
+    found = decoder.extract_id(key="k")
+    assert found.id == ident.hex() and found.report["reader"] == "radial"
+    assert decoder.images.errors and decoder.images.errors[0].startswith("connectivity")
+    assert len(decoder.images._done) == 2  # the surface reader never ran
+    # Stopping at the radial image counts every image the surface reader could offer, at
+    # the robust profile's most; another key, or another decoder, counts the same.
+    assert found.report["hypotheses"] > 32 * 5000
+    again = Decoder(marked, f)
+    again.extract_id(key="another key")
+    assert again.hypotheses == decoder.hypotheses == found.report["hypotheses"]

@@ -36,8 +36,12 @@ def test_the_id_reads_back_blind_and_a_wrong_key_does_not(kitten_marked):
     _, f, marked = kitten_marked
     got = Decoder(marked.vertices, f).extract_id(key=KEY, expected=IDENT)
     assert got.id == IDENT.hex() and got.report["ber"] == 0
-    assert got.report["reader"] == "surface"
-    assert got.report["hypotheses"] > 2  # both sizes and the gain search are counted
+    assert got.report["reader"] == "radial"  # the cheap carrier reads first
+    # The surface map's carrier holds the id too, on its own.
+    alone = Decoder(marked.vertices, f, readers=("surface",)).extract_id(key=KEY)
+    assert alone.id == IDENT.hex() and alone.report["reader"] == "surface"
+    assert alone.report["hypotheses"] > 2  # both sizes and the gain search are counted
+    assert marked.report["radial_ber"] == 0
     assert verify(marked.vertices, f, key=KEY, ident=IDENT).detected
     assert not verify(marked.vertices, f, key="another key", ident=IDENT).detected
 
@@ -60,6 +64,10 @@ def test_the_unmarked_mesh_is_not_detected(kitten_mesh):
         ("split_seams", {}),
         ("merge_load", {}),
         ("weld_stl", {}),
+        ("laplacian", {"lam": 0.1, "iterations": 10}),
+        ("meshlab_laplacian", {"iterations": 3}),
+        ("flip_edges", {"count": 100}),
+        ("retriangulate", {}),
     ],
 )
 def test_the_id_survives(kitten_marked, attack, options):

@@ -41,8 +41,11 @@ class PaperProfile:
         """The received image with lost samples filled, and the options."""
         return fill_missing(image.samples)[0], options or PaperOptions()
 
-    def decode(self, prepared: Any, n_bits: int, *, key: str | bytes) -> Decoded:
-        """Soft bits (:func:`meshwm.profiles.paper.scheme.extract_gim_paper`)."""
+    def decode(
+        self, prepared: Any, n_bits: int, *, key: str | bytes, thorough: bool = True
+    ) -> Decoded:
+        """Soft bits (:func:`meshwm.profiles.paper.scheme.extract_gim_paper`); it has no
+        candidates, so ``thorough`` changes nothing."""
         gim, options = prepared
         return extract_gim_paper(gim, n_bits, key=key, options=options)
 

@@ -41,9 +41,11 @@ class RobustProfile:
         """The candidates a received image offers (:class:`~.search.Candidates`)."""
         return Candidates(image, options=options)
 
-    def decode(self, prepared: Any, n_bits: int, *, key: str | bytes) -> Decoded:
-        """Soft bits from the best candidate."""
-        res = prepared.decode(n_bits, key=key)
+    def decode(
+        self, prepared: Any, n_bits: int, *, key: str | bytes, thorough: bool = True
+    ) -> Decoded:
+        """Soft bits from the best candidate (``thorough=False``: as received or despiked)."""
+        res = prepared.decode(n_bits, key=key, thorough=thorough)
         return Decoded(res.bits, res.confidence, res.report)
 
 

@@ -32,9 +32,10 @@ __all__ = ["MAX_HYPOTHESES", "UNSMOOTH_BELOW", "Candidates"]
 #: self-noise).
 UNSMOOTH_BELOW = 0.75
 #: The most hypotheses one image can take: every gain on the image as received, despiked and
-#: with each of the readers' smoothing steps undone (12 of them,
-#: :data:`meshwm.readers.connectivity.UNSMOOTH_STEPS`).
-MAX_HYPOTHESES = GAINS_TRIED * (2 + 12)
+#: with each of the readers' smoothing steps undone (12 uniform,
+#: :data:`meshwm.readers.connectivity.UNSMOOTH_STEPS`, and 5 × 2 cotangent,
+#: :data:`meshwm.mesh.unsmooth.COTANGENT_STEPS` × ``COTANGENT_ITERATIONS``).
+MAX_HYPOTHESES = GAINS_TRIED * (2 + 12 + 10)
 
 
 def _strength(res: RobustResult) -> float:
@@ -64,7 +65,7 @@ class Candidates:
         self._plain: PreparedGim | None = None
         self._despiked: tuple[PreparedGim, float] | None = None
         self._despiked_done = False
-        self._unsmoothed: list[tuple[int, PreparedGim]] | None = None
+        self._unsmoothed: list[tuple[int | str, PreparedGim]] | None = None
 
     def _prepare(self, samples: np.ndarray) -> PreparedGim:
         return prepare_gim_robust(samples, options=self._options)
@@ -86,7 +87,7 @@ class Candidates:
                 self._despiked = (self._prepare(gim), float(spikes.mean()))
         return self._despiked
 
-    def unsmoothed(self) -> list[tuple[int, PreparedGim]]:
+    def unsmoothed(self) -> list[tuple[int | str, PreparedGim]]:
         """The reader's images with k smoothing steps undone, prepared, with k."""
         if self._unsmoothed is None:
             undo = self._image.smoothing_undone
@@ -94,9 +95,14 @@ class Candidates:
             self._unsmoothed = [(k, self._prepare(samples)) for k, samples in found]
         return self._unsmoothed
 
-    def decode(self, n_bits: int, *, key: str | bytes) -> RobustResult:
-        """Bits with ``key`` from the best candidate; ``hypotheses`` = gains × candidates."""
-        best, best_k = decode_robust(self.plain(), n_bits, key=key), 0
+    def decode(self, n_bits: int, *, key: str | bytes, thorough: bool = True) -> RobustResult:
+        """Bits with ``key`` from the best candidate; ``hypotheses`` = gains × candidates.
+
+        ``thorough=False``: the image as received, and despiked if that reads weakly; the
+        smoothing undone only with True.
+        """
+        best = decode_robust(self.plain(), n_bits, key=key)
+        best_k: int | str = 0
         tried = 1
         despiked = 0.0
         if _strength(best) < UNSMOOTH_BELOW:
@@ -106,7 +112,7 @@ class Candidates:
                 res = decode_robust(found[0], n_bits, key=key)
                 if _strength(res) > _strength(best):
                     best, despiked = res, found[1]
-        if _strength(best) < UNSMOOTH_BELOW:  # despiking did not make it clean either
+        if thorough and _strength(best) < UNSMOOTH_BELOW:  # despiking did not make it clean
             for k, prepared in self.unsmoothed():
                 tried += 1
                 res = decode_robust(prepared, n_bits, key=key)

@@ -1,0 +1,94 @@
+"""Tests for :mod:`meshwm.watermark.radial`: the radial carrier on a mesh, read back blind."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from numpy.testing import assert_array_equal
+
+from meshwm.attacks import apply_attack
+from meshwm.message.payload import encode_id
+from meshwm.watermark import Decoder
+from meshwm.watermark.keep import normal_rms
+from meshwm.watermark.radial import embed_radial, radial_read, radial_size
+
+KEY = "a studio key"
+IDENT = bytes.fromhex("0123456789abcdef")
+BITS = encode_id(IDENT)
+
+
+@pytest.fixture(scope="module")
+def spot_radial(spot_mesh):
+    v, f = spot_mesh
+    return v, f, embed_radial(v, f, BITS, key=KEY)
+
+
+def test_the_bits_read_back_and_the_move_is_small_and_radial(spot_radial):
+    v, f, mark = spot_radial
+    assert mark.report["radial_ber"] == 0
+    got, confidence, pose = radial_read(mark.vertices, f, len(BITS), key=KEY)
+    assert_array_equal(got, BITS)
+    assert np.abs(confidence).min() > 0.9
+    assert normal_rms(v, f, mark.vertices - v) < 5e-5  # a small share of the 1.85e-4 budget
+    d = mark.vertices - v
+    radial = v - pose.centre
+    cos = np.abs(np.einsum("ij,ij->i", d, radial)) / (
+        np.linalg.norm(d, axis=1) * np.linalg.norm(radial, axis=1) + 1e-300
+    )
+    # Along the direction from the centre (each pass re-derives it: nearly the same one).
+    assert cos[np.linalg.norm(d, axis=1) > 0].min() > 1 - 1e-3
+
+
+@pytest.mark.parametrize(
+    ("attack", "options"),
+    [
+        ("flip_edges", {"count": 10}),
+        ("flip_edges", {"count": 100}),
+        ("flip_edges", {"count": 1000}),
+        ("retriangulate", {}),
+        ("split_seams", {}),
+        ("merge_load", {}),
+        ("weld_stl", {}),
+        ("round_trip", {"suffix": ".stl"}),
+        ("reorder", {}),
+        ("float32", {}),
+    ],
+)
+def test_connectivity_edits_and_exports_leave_every_bit(spot_radial, attack, options):
+    _, f, mark = spot_radial
+    av, af = apply_attack(attack, mark.vertices, f, seed=5, **options)
+    got, _, _ = radial_read(av, af, len(BITS), key=KEY)
+    assert_array_equal(got, BITS)
+
+
+def test_random_similarities_leave_every_bit(spot_radial):
+    _, f, mark = spot_radial
+    rng = np.random.default_rng(9)
+    for _ in range(10):
+        q, _ = np.linalg.qr(rng.normal(size=(3, 3)))
+        q *= np.sign(np.linalg.det(q))
+        moved = 10.0 ** rng.uniform(-2, 2) * mark.vertices @ q.T + rng.uniform(-100, 100, 3)
+        got, _, _ = radial_read(moved, f, len(BITS), key=KEY)
+        assert_array_equal(got, BITS)
+
+
+def test_a_wrong_key_reads_at_chance_and_the_decoder_reads_the_id(spot_radial):
+    _, f, mark = spot_radial
+    got, _, _ = radial_read(mark.vertices, f, len(BITS), key="another key")
+    assert 0.35 < np.mean(got != BITS) < 0.65
+    found = Decoder(mark.vertices, f, readers=("radial",)).extract_id(key=KEY)
+    assert found.id == IDENT.hex() and found.report["reader"] == "radial"
+    assert Decoder(mark.vertices, f, readers=("radial",)).extract_id(key="other").id is None
+
+
+def test_an_unused_vertex_stays_and_copies_move_together(spot_mesh):
+    v, f = spot_mesh
+    extra = np.vstack([v, v[:1], [[5.0, 5.0, 5.0]]])  # a copy of vertex 0, and a stray vertex
+    faces = np.vstack([f, [[len(v), 1, 2]]])  # the copy is used too
+    mark = embed_radial(extra, faces, BITS, key=KEY)
+    assert_array_equal(mark.vertices[-1], [5.0, 5.0, 5.0])
+    assert_array_equal(mark.vertices[len(v)], mark.vertices[0])
+
+
+def test_the_size_follows_the_payload():
+    assert radial_size(256) == 128 and radial_size(1024) == 256
