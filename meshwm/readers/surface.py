@@ -14,7 +14,8 @@ are a near-tie (:attr:`meshwm.gim.stable.StableCut.near_ties`: the genus-8 plate
 Where the received mesh has coincident vertices, which the cleaning merges, the connectivity as
 given is offered too (quantisation makes vertices coincide, and merging them changes the
 connectivity the cut is made of).  The decoder is also offered the received mesh with uniform
-Laplacian smoothing undone, sampled the same way.
+Laplacian smoothing undone, and with MeshLab's (cotangent) Laplacian smoothing undone
+(:mod:`meshwm.mesh.unsmooth`), sampled the same way.
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ from numpy.typing import NDArray
 
 from meshwm._validate import DEFAULT_MAX_FACES, check_mesh
 from meshwm.errors import GridError, MeshError
+from meshwm.gim.stable import TIPS
 from meshwm.gim.surface import (
     SURFACE_RANKS,
     SURFACE_SIZES,
@@ -33,20 +35,36 @@ from meshwm.gim.surface import (
     sample_surface,
     surface_of,
 )
+from meshwm.mesh.unsmooth import cotangent_unsmoothed
 from meshwm.readers.base import LazyImages, SampledImage
 from meshwm.readers.connectivity import unsmoothed
 
-__all__ = ["read_surface"]
+__all__ = ["MOST_IMAGES", "read_surface"]
+
+#: The most images this reader offers: every size for the candidate starts, the near-tie starts
+#: (:attr:`meshwm.gim.stable.StableCut.near_ties`, at most ``2 * TIPS``) and, where vertices
+#: coincide, the candidate starts again on the connectivity as given.
+MOST_IMAGES = (2 * len(SURFACE_RANKS) + 2 * TIPS) * len(SURFACE_SIZES)
 
 
-def _undone(
-    positions: NDArray[np.float64], faces: NDArray[np.int64], image: SurfaceImage
-) -> list[tuple[int, NDArray[np.float64]]]:
-    out = []
-    for k, x in unsmoothed(positions, faces):
+Unsmoothed = list[tuple[int | str, NDArray[np.float64]]]
+
+
+def _unsmoothed(positions: NDArray[np.float64], faces: NDArray[np.int64]) -> Unsmoothed:
+    """The positions with k uniform steps undone (label k), then with MeshLab's (cotangent)
+    steps undone (:func:`meshwm.mesh.unsmooth.cotangent_unsmoothed`'s labels)."""
+    found: Unsmoothed = list(unsmoothed(positions, faces))
+    found += list(cotangent_unsmoothed(positions, faces))
+    return found
+
+
+def _undone(found: Unsmoothed, image: SurfaceImage) -> Unsmoothed:
+    """The image of each of :func:`_unsmoothed`'s position sets."""
+    out: Unsmoothed = []
+    for label, x in found:
         samples = np.asarray(image.matrix @ x).reshape(image.samples.shape)
         samples[~image.covered] = np.nan
-        out.append((k, samples))
+        out.append((label, samples))
     return out
 
 
@@ -119,6 +137,16 @@ def read_surface(
                 surfaces[(given, rank)] = first  # no such start or surface: the first again
         return surfaces[(given, rank)]
 
+    # The starts and sizes of one connectivity share its positions and faces, so they undo
+    # the same smoothing: once per connectivity.
+    undone: dict[tuple[int, int], tuple[Surface, Unsmoothed]] = {}
+
+    def positions_undone(surface: Surface) -> Unsmoothed:
+        key = (id(surface.positions), id(surface.faces))
+        if key not in undone:  # the surface is kept with it, so the ids stay its own
+            undone[key] = (surface, _unsmoothed(surface.positions, surface.faces))
+        return undone[key][1]
+
     def make(k: int) -> SampledImage:
         surface = surface_at(*starts[k // len(SURFACE_SIZES)])
         image = sample_surface(surface, size=SURFACE_SIZES[k % len(SURFACE_SIZES)])
@@ -126,7 +154,7 @@ def read_surface(
             samples=image.samples,
             hypotheses=1,
             reader="surface",
-            smoothing_undone=lambda: _undone(surface.positions, surface.faces, image),
+            smoothing_undone=lambda: _undone(positions_undone(surface), image),
         )
 
     return LazyImages(len(starts) * len(SURFACE_SIZES), make)
