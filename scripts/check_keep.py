@@ -4,8 +4,9 @@ For every mesh: embed a 64-bit id with the input's mesh kept (``meshwm.embed``, 
 check that the output's vertex count, order and faces are the input's, measure MRMS and
 Hausdorff against the input (MeshLab, over the input's bounding-box diagonal), then run each
 attack and read the id back blind (``meshwm.watermark.Decoder``: any reader, every hypothesis
-counted) and decide at FPR 1e-6 (``meshwm.detect.decide``).  A cell is ``ok`` when the id reads
-back exactly and the detection holds, else the bit error rate of the code bits.  With
+counted) and decide at FPR 1e-6 (``meshwm.detect.decide``).  A cell is ``ok·r`` (``ok·s``) when
+the id reads back exactly and the detection holds, through the radial (surface) reader, else
+the bit error rate of the code bits.  With
 ``--cho`` the same meshes are also marked with Cho, Prost & Jung 2007 (method I,
 ``scripts/cho2007.py``) at the same MRMS against the input, and a second table gives how often
 each method reads the id on each attack.
@@ -126,7 +127,8 @@ def _read(v: np.ndarray, f: np.ndarray, key: str) -> dict[str, Any]:
         return {"ok": False, "cell": f"error: {type(exc).__name__}", "read": False}
     verdict = decide(got.report, fpr=FPR, found_id=got.id, expected_id=IDENT.hex())
     ok = bool(got.id == IDENT.hex() and verdict.detected)
-    cell = "ok" if ok else f"{got.report['ber']:.3f}"
+    # Which carrier read it: r(adial), s(urface) or c(onnectivity: a meshwm grid).
+    cell = f"ok·{got.report['reader'][0]}" if ok else f"{got.report['ber']:.3f}"
     return {"ok": ok, "cell": cell, "read": got.id == IDENT.hex(), "p": verdict.p_value}
 
 
@@ -199,7 +201,7 @@ def cho_table(rows: list[dict[str, Any]], labels: list[str]) -> str:
     good = [r for r in rows if "error" not in r and r["cho"]]
     lines = ["| attack | meshwm reads the id | Cho 2007 reads the id |", "|---|---|---|"]
     for label in labels:
-        ours = sum(r["cells"][label] == "ok" for r in good)
+        ours = sum(r["cells"][label].startswith("ok") for r in good)
         theirs = sum(bool(r["cho"].get(label)) for r in good)
         lines.append(f"| {label} | {ours}/{len(good)} | {theirs}/{len(good)} |")
     return "\n".join(lines)

@@ -1,8 +1,9 @@
 """Null study of issue 13: the surface reader on meshes that do not carry the mark.
 
-For every development mesh, unmarked: the mesh as it is and after 100 flips of flat edges and
-noise (0.1 %), each read once (``meshwm.watermark.Decoder``: the surface reader, both sizes)
-and decoded with ``--keys`` random keys, each checked for a random 64-bit id exactly as
+For every development mesh, unmarked: the mesh as it is, after 100 flips of flat edges, noise
+(0.1 %), 10-bit quantisation and a random similarity, each read once
+(``meshwm.watermark.Decoder``: every reader, or only ``--readers``) and decoded with ``--keys``
+random keys, each checked for a random 64-bit id exactly as
 ``meshwm verify --id`` decides (p-value below 1e-6 over every hypothesis counted, and the id read
 back equal to the one expected), and for any valid id at all (``--any-id``: a Reed-Solomon
 decode whose CRC-32 matches).  Then each mesh is marked with an id (its mesh kept) and read with
@@ -10,7 +11,8 @@ decode whose CRC-32 matches).  Then each mesh is marked with an id (its mesh kep
 key.  Prints a table (detections, valid ids, smallest p-value x hypotheses) and exits 1 if
 anything is detected.
 
-    python scripts/null_keep.py [--keys 350] [--wrong-keys 50] [--jobs 2] [--out FILE]
+    python scripts/null_keep.py [--keys 350] [--wrong-keys 50] [--readers radial ...]
+        [--jobs 2] [--out FILE]
 """
 
 from __future__ import annotations
@@ -49,20 +51,22 @@ def _trial(decoder: Decoder, key: str, ident: bytes) -> dict[str, Any]:
     }
 
 
-def run_mesh(task: tuple[str, int, int]) -> list[dict[str, Any]]:
+def run_mesh(task: tuple[str, int, int, tuple[str, ...] | None]) -> list[dict[str, Any]]:
     """Every trial on one mesh (a worker)."""
-    name, keys, wrong = task
+    name, keys, wrong, readers = task
     v, f = read_mesh(MESHES / f"{name}.ply")
     variants = {
         "as given": (v, f),
         "100 flips": apply_attack("flip_edges", v, f, seed=1, count=100),
         "noise 0.1 %": apply_attack("noise", v, f, seed=1, amplitude=0.001),
+        "10-bit": apply_attack("quantize", v, f, seed=1, bits=10),
+        "similarity": apply_attack("similarity", v, f, seed=1),
     }
     rows = []
     for label, (vv, ff) in variants.items():
         t0 = time.perf_counter()
         try:
-            decoder = Decoder(vv, ff)
+            decoder = Decoder(vv, ff, readers=readers)
         except Exception as exc:  # a row of the table
             rows.append({"mesh": name, "case": label, "error": f"{type(exc).__name__}: {exc}"})
             continue
@@ -78,7 +82,7 @@ def run_mesh(task: tuple[str, int, int]) -> list[dict[str, Any]]:
     except Exception as exc:
         rows.append({"mesh": name, "case": "marked", "error": f"{type(exc).__name__}: {exc}"})
         return rows
-    decoder = Decoder(marked.vertices, marked.faces)
+    decoder = Decoder(marked.vertices, marked.faces, readers=readers)
     trials = [_trial(decoder, _derived("wrong", name, j).hex(), ident) for j in range(wrong)]
     rows.append(_summary(name, "marked, wrong keys", trials, t0))
     return rows
@@ -101,11 +105,13 @@ def main() -> int:
     parser.add_argument("--meshes", nargs="+", default=DEV)
     parser.add_argument("--keys", type=int, default=350)
     parser.add_argument("--wrong-keys", type=int, default=50)
+    parser.add_argument("--readers", nargs="+", help="only these readers (default: all)")
     parser.add_argument("--jobs", type=int, default=2)
     parser.add_argument("--out", type=Path)
     args = parser.parse_args()
     t0 = time.perf_counter()
-    tasks = [(name, args.keys, args.wrong_keys) for name in args.meshes]
+    readers = tuple(args.readers) if args.readers else None
+    tasks = [(name, args.keys, args.wrong_keys, readers) for name in args.meshes]
     with ProcessPoolExecutor(args.jobs) as pool:
         rows = [row for result in pool.map(run_mesh, tasks) for row in result]
     lines = [
@@ -126,7 +132,8 @@ def main() -> int:
     valid = sum(r["valid"] for r in good)
     lines.append(
         f"\n{total} keyed trials: {detected} detections, {valid} valid ids "
-        f"({time.perf_counter() - t0:.0f} s, FPR {FPR:g})"
+        f"({time.perf_counter() - t0:.0f} s, FPR {FPR:g}, readers: "
+        f"{', '.join(readers) if readers else 'all'})"
     )
     text = "\n".join(lines) + "\n"
     print(text)

@@ -31,6 +31,10 @@ class SampledImage(NamedTuple):
     scheme : str or None
         What decodes the image when it is not the embedding's profile: ``"radial"`` for the
         spherical image of the radial carrier (:data:`meshwm.profiles.CARRIERS`).
+    primary : bool
+        The reader's first hypothesis (the grid it found; the surface map from the canonical
+        cut start): a decoder tries it with every candidate, however weakly it reads as
+        received.
     """
 
     samples: NDArray[np.float64]
@@ -38,6 +42,7 @@ class SampledImage(NamedTuple):
     reader: str
     smoothing_undone: Callable[[], Sequence[tuple[int | str, NDArray[np.float64]]]] | None = None
     scheme: str | None = None
+    primary: bool = False
 
     @property
     def n(self) -> int:

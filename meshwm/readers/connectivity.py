@@ -187,4 +187,5 @@ def read_connectivity(
         hypotheses=int(grid.hypotheses),
         reader="connectivity",
         smoothing_undone=lambda: smoothing_undone(grid_v, grid_f, grid.index),
+        primary=True,
     )

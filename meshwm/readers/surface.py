@@ -155,6 +155,7 @@ def read_surface(
             hypotheses=1,
             reader="surface",
             smoothing_undone=lambda: _undone(positions_undone(surface), image),
+            primary=k < len(SURFACE_SIZES),  # the canonical start, at every size
         )
 
     return LazyImages(len(starts) * len(SURFACE_SIZES), make)
