@@ -30,7 +30,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
         description=(
             "Draw a row of flat-shaded orthographic views of the mesh. With --compare, colour "
             "it by the distance from each of its vertices to the surface of OTHER, in % of "
-            "OTHER's bounding-box diagonal. docs/render.md describes the pictures."
+            "OTHER's bounding-box diagonal. meshwm docs render describes the pictures."
         ),
     )
     parser.add_argument("input", type=Path, help="mesh file to draw")
