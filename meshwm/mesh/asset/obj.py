@@ -45,123 +45,133 @@ def _texture_files(mtl: Path) -> list[str]:
     return out
 
 
-def read(data: bytes, path: Path | None) -> Asset:
-    """Parse an OBJ file into an :class:`~meshwm.mesh.asset.document.Asset`."""
-    lines = data.split(b"\n")
-    v_lines: list[int] = []
-    coords: list[tuple[float, float, float]] = []
-    tokens: list[bytes] = []
-    n_vt = n_vn = n_colored = 0
-    flat: list[int] = []
-    lengths: list[int] = []
-    face_section: list[int] = []
-    sections: dict[tuple[bytes, bytes], int] = {}
-    obj_name = group_name = b""
-    has_objects = False
-    materials: set[bytes] = set()
-    libraries: list[str] = []
-    n_lines_records = 0
-    section = -1
-    for number, raw in enumerate(lines, start=1):
+class _Scan:
+    """One pass over the lines of an OBJ file: what marking needs, and the counts to report."""
+
+    def __init__(self) -> None:
+        self.v_lines: list[int] = []
+        self.coords: list[tuple[float, float, float]] = []
+        self.tokens: list[bytes] = []
+        self.counts = {"vt": 0, "vn": 0, "colored": 0, "lines": 0}
+        self.corners: list[int] = []
+        self.lengths: list[int] = []
+        self.face_section: list[int] = []
+        self.sections: dict[tuple[bytes, bytes], int] = {}
+        self.names = [b"", b""]  # the current object and group
+        self.has_objects = False
+        self.materials: set[bytes] = set()
+        self.libraries: list[str] = []
+        self.section = -1
+
+    def vertex(self, number: int, rest: bytes) -> None:
+        words = rest.split()
+        try:
+            xyz = (float(words[0]), float(words[1]), float(words[2]))
+        except (ValueError, IndexError):
+            raise MeshError(f"OBJ line {number}: a vertex needs three numbers") from None
+        self.v_lines.append(number - 1)
+        self.coords.append(xyz)
+        if len(self.tokens) < 30_000:
+            self.tokens.extend(words[:3])
+        if len(words) >= 6:
+            self.counts["colored"] += 1
+
+    def face(self, number: int, rest: bytes) -> None:
+        if self.section < 0:
+            key = (self.names[0], self.names[1])
+            self.section = self.sections.setdefault(key, len(self.sections))
+        n_here = len(self.v_lines)
+        count = 0
+        for word in rest.split():
+            try:
+                index = int(word.split(b"/", 1)[0])
+            except ValueError:
+                raise MeshError(f"OBJ line {number}: bad face corner {word[:20]!r}") from None
+            if index == 0:
+                raise MeshError(f"OBJ line {number}: index 0 (OBJ indices start at 1)")
+            self.corners.append(index - 1 if index > 0 else n_here + index)
+            count += 1
+        if count < 3:
+            raise MeshError(f"OBJ line {number}: a face needs at least 3 vertices")
+        self.lengths.append(count)
+        self.face_section.append(self.section)
+
+    def line(self, number: int, raw: bytes) -> None:
         line = raw.strip()
         if not line or line[:1] == b"#":
-            continue
+            return
         if line.endswith(b"\\"):
             raise MeshError(f"OBJ line {number} continues on the next line (\\); not supported")
         keyword, *others = line.split(None, 1)
         rest = others[0] if others else b""
         if keyword == b"v":
-            words = rest.split()
-            try:
-                xyz = (float(words[0]), float(words[1]), float(words[2]))
-            except (ValueError, IndexError):
-                raise MeshError(f"OBJ line {number}: a vertex needs three numbers") from None
-            v_lines.append(number - 1)
-            coords.append(xyz)
-            if len(tokens) < 30_000:
-                tokens.extend(words[:3])
-            if len(words) >= 6:
-                n_colored += 1
+            self.vertex(number, rest)
         elif keyword == b"f":
-            if section < 0:
-                section = sections.setdefault((obj_name, group_name), len(sections))
-            n_here = len(v_lines)
-            count = 0
-            for word in rest.split():
-                try:
-                    index = int(word.split(b"/", 1)[0])
-                except ValueError:
-                    raise MeshError(f"OBJ line {number}: bad face corner {word[:20]!r}") from None
-                if index == 0:
-                    raise MeshError(f"OBJ line {number}: index 0 (OBJ indices start at 1)")
-                flat.append(index - 1 if index > 0 else n_here + index)
-                count += 1
-            if count < 3:
-                raise MeshError(f"OBJ line {number}: a face needs at least 3 vertices")
-            lengths.append(count)
-            face_section.append(section)
-        elif keyword == b"vt":
-            n_vt += 1
-        elif keyword == b"vn":
-            n_vn += 1
+            self.face(number, rest)
+        elif keyword in (b"vt", b"vn"):
+            self.counts[keyword.decode()] += 1
         elif keyword in (b"o", b"g"):
-            name = rest.strip()
-            if keyword == b"o":
-                obj_name, has_objects = name, True
-            else:
-                group_name = name
-            section = -1
+            self.names[keyword == b"g"] = rest.strip()
+            self.has_objects |= keyword == b"o"
+            self.section = -1
         elif keyword == b"usemtl":
-            materials.add(rest.strip())
+            self.materials.add(rest.strip())
         elif keyword == b"mtllib":
-            libraries.extend(w.decode("utf-8", "replace") for w in rest.split())
+            self.libraries.extend(w.decode("utf-8", "replace") for w in rest.split())
         elif keyword in (b"l", b"p"):
-            n_lines_records += 1
-    if not lengths:
+            self.counts["lines"] += 1
+
+    def parts(self, tri: np.ndarray, owner: np.ndarray) -> list[tuple[str, np.ndarray, int]]:
+        """(name, triangles, polygons) per object, or per group when there is no object."""
+        by_key: dict[bytes, list[int]] = {}
+        for s, (o_name, g_name) in enumerate(self.sections):
+            by_key.setdefault(o_name if self.has_objects else g_name, []).append(s)
+        polygon_section = np.asarray(self.face_section, dtype=np.int64)
+        tri_section = polygon_section[owner]
+        return [
+            (
+                name.decode("utf-8", "replace"),
+                tri[np.isin(tri_section, members)],
+                int(np.isin(polygon_section, members).sum()),
+            )
+            for name, members in by_key.items()
+        ]
+
+
+def read(data: bytes, path: Path | None) -> Asset:
+    """Parse an OBJ file into an :class:`~meshwm.mesh.asset.document.Asset`."""
+    scan = _Scan()
+    for number, raw in enumerate(data.split(b"\n"), start=1):
+        scan.line(number, raw)
+    if not scan.lengths:
         raise MeshError("file contains no faces (empty, truncated or only points?)")
-    positions = np.asarray(coords, dtype=np.float64).reshape(-1, 3)
+    positions = np.asarray(scan.coords, dtype=np.float64).reshape(-1, 3)
     if not np.isfinite(positions).all():
         raise MeshError("NaN or infinite vertex coordinates")
-    tri, owner = fan_triangles(flat, lengths)
+    tri, owner = fan_triangles(scan.corners, scan.lengths)
     if tri.min() < 0 or tri.max() >= len(positions):
         raise MeshError(
             f"a face refers to a vertex that does not exist ({len(positions)} vertices)"
         )
-    keys = list(sections)
-    by_key: dict[bytes, list[int]] = {}
-    for s, (o_name, g_name) in enumerate(keys):
-        by_key.setdefault(o_name if has_objects else g_name, []).append(s)
-    tri_section = np.asarray(face_section, dtype=np.int64)[owner]
-    polygon_section = np.asarray(face_section, dtype=np.int64)
-    parts = []
-    for name, members in by_key.items():
-        mask = np.isin(tri_section, members)
-        parts.append(
-            (
-                name.decode("utf-8", "replace"),
-                tri[mask],
-                int(np.isin(polygon_section, members).sum()),
-            )
-        )
-    meshes = group_sections(positions, parts)
-    style = infer_style(tokens, positions)
-    sidecars = list(libraries)
+    meshes = group_sections(positions, scan.parts(tri, owner))
+    style = infer_style(scan.tokens, positions)
+    sidecars = list(scan.libraries)
     if path is not None:
-        for library in libraries:
+        for library in scan.libraries:
             sidecars.extend(_texture_files(path.parent / library))
-    extra = [f"mtllib={' '.join(libraries)}"] if libraries else []
-    if n_lines_records:
-        extra.append(f"lines/points={n_lines_records}")
+    extra = [f"mtllib={' '.join(scan.libraries)}"] if scan.libraries else []
+    if scan.counts["lines"]:
+        extra.append(f"lines/points={scan.counts['lines']}")
     summary = Summary(
         meshes=len(meshes),
         vertices=len(positions),
-        faces=len(lengths),
+        faces=len(scan.lengths),
         triangles=len(tri),
-        polygons=sum(1 for n in lengths if n > 3),
-        uvs=n_vt,
-        normals=n_vn,
-        colors=n_colored,
-        materials=len(materials),
+        polygons=sum(1 for n in scan.lengths if n > 3),
+        uvs=scan.counts["vt"],
+        normals=scan.counts["vn"],
+        colors=scan.counts["colored"],
+        materials=len(scan.materials),
         dtype=f"text, {'exponent ' if style.exponent else ''}{style.digits} decimals",
         extra=tuple(extra),
     )
@@ -172,7 +182,7 @@ def read(data: bytes, path: Path | None) -> Asset:
         positions.copy(),
         tuple(meshes),
         summary,
-        state=(np.asarray(v_lines, dtype=np.int64), style),
+        state=(np.asarray(scan.v_lines, dtype=np.int64), style),
         path=path,
         sidecars=tuple(dict.fromkeys(sidecars)),
     )
