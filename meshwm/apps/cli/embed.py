@@ -210,11 +210,18 @@ def _embed_kept(
 
 
 def _summary_line(summary: dict[str, Any]) -> str:
-    parts = [f"{summary['vertices']} vertices", f"{summary['faces']} faces"]
-    for name in ("polygons", "uvs", "normals", "colors", "materials"):
-        if summary[name]:
-            parts.append(f"{summary[name]} {name if name != 'uvs' else 'UVs'}")
-    parts.append(f"{summary['meshes']} mesh{'es' if summary['meshes'] != 1 else ''}")
+    def count(n: int, word: str) -> str:
+        plural = word if n == 1 else (word + "es" if word.endswith("sh") else word + "s")
+        return f"{n} {plural}"
+
+    parts = [count(summary["vertices"], "vertex").replace("vertexs", "vertices")]
+    parts.append(count(summary["faces"], "face"))
+    names = {"polygons": "polygon", "uvs": "UV", "normals": "normal", "colors": "colour"}
+    names["materials"] = "material"
+    for key, word in names.items():
+        if summary[key]:
+            parts.append(count(summary[key], word))
+    parts.append(count(summary["meshes"], "mesh"))
     return ", ".join(parts) + f"; {summary['dtype']}"
 
 
