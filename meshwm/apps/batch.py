@@ -16,7 +16,7 @@ from __future__ import annotations
 import glob
 import os
 import time
-from collections.abc import Iterable, Iterator, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -106,11 +106,14 @@ def _best(meshes: list[dict[str, Any]]) -> dict[str, Any]:
     return min(read, key=lambda m: m["p_value"]) if read else meshes[0]
 
 
-def verify_file(path: str | os.PathLike, check: Check) -> dict[str, Any]:
+def verify_file(
+    path: str | os.PathLike, check: Check, *, progress: Callable[[str], None] | None = None
+) -> dict[str, Any]:
     """One row: path, detected, p_value, ber, id, seconds, error, meshes (never raises).
 
     ``detected``: some mesh of the file carries what was sought; the figures (``p_value``,
     ``ber``, ``id``, ``note``, ``reason``, ...) are that mesh's, or the closest one's.
+    ``progress`` is told which mesh is being read.
     """
     t0 = time.perf_counter()
     row: dict[str, Any] = {
@@ -134,6 +137,7 @@ def verify_file(path: str | os.PathLike, check: Check) -> dict[str, Any]:
             fpr=check.fpr,
             params=check.params,
             max_faces=check.max_faces,
+            progress=progress,
         )
         best = _best(meshes)
         row.update({k: best[k] for k in _TOP if k in best})

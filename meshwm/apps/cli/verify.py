@@ -86,7 +86,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
 
 def run(args: argparse.Namespace) -> int:
     """Verify ``args.input``; the exit code is the verdict."""
-    from meshwm.apps.batch import Check, expand_paths, run_dask, run_local, summarise
+    from meshwm.apps.batch import Check, expand_paths, run_dask, run_local, summarise, verify_file
     from meshwm.apps.progress import ProgressBar, Status
     from meshwm.message.mark import default_mark, load_mark
 
@@ -116,7 +116,7 @@ def run(args: argparse.Namespace) -> int:
     if one and not args.jsonl and not args.scheduler:
         with Status(sys.stderr) as status:
             status.stage(f"reading {paths[0]}")
-            row = run_local(paths, check).__next__()
+            row = verify_file(paths[0], check, progress=status.stage)
         if row["error"]:
             raise ValueError(row["error"])
         if args.json:

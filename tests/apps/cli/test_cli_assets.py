@@ -319,6 +319,16 @@ def test_an_id_sought_in_a_logo_marked_file(made, capsys):
     assert out == f"{logo}: an id absent: {note}\n"
 
 
+def test_an_id_sought_in_a_file_with_another_id(made, capsys):
+    prop = made["out"]["prop.obj"]
+    code, out, _ = run(["verify", str(prop), "--key", KEY, "--id", "VENDOR_Z", "--json"], capsys)
+    assert code == 1
+    report = json.loads(out)
+    assert report["detected"] is False and report["id_text"] == "VENDOR_B"
+    assert report["note"] == 'this mesh carries another id: "VENDOR_B" (0x56454e444f525f42)'
+    assert report["meshes"][0]["note"] == report["note"]
+
+
 def test_verify_seeks_the_bundled_logo_by_default(made, capsys):
     code, out, _ = run(["verify", str(made["out"]["logo.ply"]), "--key", KEY], capsys)
     assert code == 0 and "mark present (BER 0.0000" in out
