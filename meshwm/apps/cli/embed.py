@@ -185,7 +185,8 @@ def _embed_kept(
     status.stage(f"writing {args.output}")
     written = write_asset(args.output, marked.asset, overwrite_input=args.input, force=args.force)
     notes = []
-    missing = missing_sidecars(asset, args.output)
+    same_format = args.output.suffix.lower() == asset.suffix
+    missing = missing_sidecars(asset, args.output) if same_format else []
     if missing:
         notes.append(
             f"{args.output} refers to {', '.join(missing)}, next to the input but not next to "
@@ -255,7 +256,7 @@ def _print_kept(report: dict[str, Any]) -> None:
     converted = Path(report["input"]).suffix.lower() != report["format"]
     if kept["changes"]:
         lines.append(
-            f"  file : converted to {report['format']}; not kept: {'; '.join(kept['changes'])}"
+            f"  file : converted to {report['format']}; differs: {'; '.join(kept['changes'])}"
         )
     else:
         done = f"converted to {report['format']}" if converted else "kept whole"

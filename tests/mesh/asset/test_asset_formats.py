@@ -400,3 +400,24 @@ def test_bad_files_are_one_line_errors(name, data, message, tmp_path):
     with pytest.raises(MeshError, match=message) as info:
         read_asset(path)
     assert "\n" not in str(info.value) and str(info.value).startswith(str(path))
+
+
+def test_a_conversion_keeps_a_mesh_split_by_material_whole(tmp_path):
+    """trimesh splits an OBJ by usemtl; each mesh carries its mark whole, so it is joined."""
+    box = trimesh.creation.box()
+    lines = ["mtllib two.mtl", "o box"] + [f"v {x} {y} {z}" for x, y, z in box.vertices]
+    for k, face in enumerate(box.faces + 1):
+        if k in (0, 6):
+            lines.append(f"usemtl {'red' if k == 0 else 'blue'}")
+        lines.append("f " + " ".join(map(str, face)))
+    (tmp_path / "two.mtl").write_text("newmtl red\nKd 1 0 0\nnewmtl blue\nKd 0 0 1\n")
+    path = tmp_path / "box.obj"
+    path.write_text("\n".join(lines) + "\n")
+    asset = read_asset(path)
+    written = write_asset(tmp_path / "box.glb", moved(asset))
+    assert [m.name for m in written.meshes] == ["box"]
+    assert written.meshes[0].n_vertices == 8
+    expected = np.sort((asset.vertices(0) + SHIFT).view("f8,f8,f8").ravel())  # any order
+    got = np.sort(written.vertices(0).view("f8,f8,f8").ravel())
+    np.testing.assert_allclose(got.view("f8").reshape(-1, 3), expected.view("f8").reshape(-1, 3),
+                               atol=1e-6, rtol=0)  # fmt: skip
