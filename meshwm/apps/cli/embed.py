@@ -13,10 +13,16 @@ import json
 import sys
 import time
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from meshwm.apps.cli import options
 from meshwm.apps.cli.output import EXIT_OK, rounded
+
+if TYPE_CHECKING:  # pragma: no cover - for type checkers only
+    from numpy.typing import NDArray
+
+    from meshwm.apps.progress import Status
+    from meshwm.params import WatermarkParams
 
 __all__ = ["HELP", "NAME", "add_parser", "run"]
 
@@ -129,7 +135,11 @@ def _json_ready(report: dict[str, Any]) -> dict[str, Any]:
 
 
 def _embed_grid(
-    args: argparse.Namespace, key: str | bytes, params: Any, mark: Any, status: Any
+    args: argparse.Namespace,
+    key: str | bytes,
+    params: WatermarkParams,
+    mark: NDArray | None,
+    status: Status,
 ) -> dict[str, Any]:
     """The paper's output: one mesh read bare, remeshed to the N×N grid, marked."""
     from meshwm.mesh.io import check_output, read_mesh, write_mesh
@@ -160,7 +170,11 @@ def _embed_grid(
 
 
 def _embed_kept(
-    args: argparse.Namespace, key: str | bytes, params: Any, mark: Any, status: Any
+    args: argparse.Namespace,
+    key: str | bytes,
+    params: WatermarkParams,
+    mark: NDArray | None,
+    status: Status,
 ) -> dict[str, Any]:
     """Every mesh of the file marked in place; the file written whole."""
     from dataclasses import asdict
