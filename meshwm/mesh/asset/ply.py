@@ -118,6 +118,10 @@ def _walk_binary(
             pos += element.count * _scalar_dtype(element, order).itemsize
         if pos > len(data):
             raise MeshError(f"PLY {element.name} data is truncated")
+    if data[pos:].strip():
+        raise MeshError(
+            f"PLY file has {len(data) - pos} bytes after its last element (corrupt header?)"
+        )
     return offsets, corners, lengths
 
 

@@ -79,6 +79,9 @@ def read_asset(path: PathLike, *, max_faces: int = DEFAULT_MAX_FACES) -> Asset:
         raise mesh_error(
             path, f"cannot read {fmt.label} file, truncated or corrupt? ({describe(exc)})"
         ) from exc
+    if not asset.meshes or not any(len(m.faces) for m in asset.meshes if m.reason is None):
+        if not any(m.reason for m in asset.meshes):
+            raise mesh_error(path, "file contains no faces (empty, truncated or only points?)")
     if asset.summary.triangles > max_faces:
         raise mesh_error(
             path,

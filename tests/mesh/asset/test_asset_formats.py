@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import trimesh
+from _malformed import MUST_FAIL_ON_READ_IDS, MalformedCase, make_malformed_cases
 
 from meshwm.errors import MeshError
 from meshwm.mesh.asset import asset_bytes, read_asset, write_asset
@@ -421,3 +422,20 @@ def test_a_conversion_keeps_a_mesh_split_by_material_whole(tmp_path):
     got = np.sort(written.vertices(0).view("f8,f8,f8").ravel())
     np.testing.assert_allclose(got.view("f8").reshape(-1, 3), expected.view("f8").reshape(-1, 3),
                                atol=1e-6, rtol=0)  # fmt: skip
+
+
+@pytest.fixture(scope="module")
+def malformed(tmp_path_factory: pytest.TempPathFactory) -> dict[str, MalformedCase]:
+    """The malformed files of ``tests/_malformed.py`` (the reader of bare meshes refuses them)."""
+    cases = make_malformed_cases(tmp_path_factory.mktemp("malformed"))
+    return {case.case_id: case for case in cases}
+
+
+@pytest.mark.parametrize("case_id", MUST_FAIL_ON_READ_IDS)
+def test_malformed_files_are_refused_as_documents_too(case_id, malformed, capfd):
+    path = malformed[case_id].path
+    with pytest.raises(MeshError) as info:
+        read_asset(path)
+    message = str(info.value)
+    assert "\n" not in message and message.startswith(f"{path}: ")
+    assert capfd.readouterr() == ("", "")
