@@ -198,7 +198,7 @@ def test_extract_json_reads_the_mesh_once(ident, files, tmp_path, capsys, monkey
     assert report["input"] == str(marked) and report["output"] is None
     assert report["kind"] == ("mark" if ident is None else "id")
     if ident is None:
-        for name in ("n", "reader", "hypotheses", "carriers"):
+        for name in ("n", "reader", "hypotheses"):
             assert report[name] == _rounded(expected)[name], name
         assert report["logo"] is True
 
