@@ -22,6 +22,13 @@ pytest_plugins = [
 ]
 
 
+@pytest.fixture(autouse=True)
+def _no_key_in_the_environment(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A ``MESHWM_KEY`` exported in the shell that runs the tests would make every ``--key``
+    a second key source (refused); tests that want the variable set it themselves."""
+    monkeypatch.delenv("MESHWM_KEY", raising=False)
+
+
 @pytest.fixture(scope="session")
 def assets_dir() -> Path:
     return ASSETS
