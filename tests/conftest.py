@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -20,6 +21,15 @@ pytest_plugins = [
     "_fixtures_gim",
     "_fixtures_recover",
 ]
+
+
+@pytest.fixture(autouse=True, scope="session")
+def _no_key_in_the_environment() -> Iterator[None]:
+    """A ``MESHWM_KEY`` exported in the shell that runs the tests would make every ``--key``
+    a second key source (refused); tests that want the variable set it themselves."""
+    with pytest.MonkeyPatch.context() as patch:
+        patch.delenv("MESHWM_KEY", raising=False)
+        yield
 
 
 @pytest.fixture(scope="session")

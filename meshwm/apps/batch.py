@@ -1,9 +1,11 @@
 """Verify many files: path expansion, one self-contained check per file, parallel runners.
 
-``meshwm verify PATH… --key K (--mark IMG | --id X | --any-id) [--jobs J] [--jsonl]`` answers
-"is this ours, and whose copy is it?" for a whole asset library.  Each file is checked by
-:func:`verify_file`, a pure function of (path, :class:`Check`) that never raises: a file that
-cannot be read is a row with an ``error``, never the end of the batch.  The rows are the same
+``meshwm verify PATH… --key-file K [--mark IMG | --id X | --any-id] [--jobs J] [--jsonl]``
+answers "is this ours, and whose copy is it?" for a whole asset library.  Each file is checked
+by :func:`verify_file`, a pure function of (path, :class:`Check`) that never raises: a file that
+cannot be read is a row with an ``error``, never the end of the batch.  Every mesh of a file is
+read (:func:`meshwm.watermark.assets.verify_asset`); the file is present when one of its meshes
+is, and its row lists them all under ``meshes``.  The rows are the same
 whether the files are checked in this process, by ``--jobs`` worker processes
 (:mod:`concurrent.futures`) or on a Dask cluster (``--scheduler``, :func:`run_dask`); the
 order of the output is the order of the paths.
@@ -14,9 +16,9 @@ from __future__ import annotations
 import glob
 import os
 import time
-from collections.abc import Iterable, Iterator, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from concurrent.futures import ProcessPoolExecutor
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -24,11 +26,10 @@ import numpy as np
 
 from meshwm._malloc import keep_freed_memory
 from meshwm._validate import DEFAULT_MAX_FACES
-from meshwm.detect import decide
-from meshwm.errors import GridError, MeshError
-from meshwm.mesh.io import READ_SUFFIXES, read_mesh
+from meshwm.errors import MeshError
+from meshwm.mesh.asset import ASSET_SUFFIXES, read_asset
 from meshwm.params import WatermarkParams
-from meshwm.watermark import extract, extract_id
+from meshwm.watermark.assets import verify_asset
 
 __all__ = ["Check", "expand_paths", "run_dask", "run_local", "summarise", "verify_file"]
 
@@ -37,16 +38,19 @@ __all__ = ["Check", "expand_paths", "run_dask", "run_local", "summarise", "verif
 class Check:
     """What to look for in each file.
 
-    Exactly one of ``mark`` (a 0/1 image), ``ident`` (8 bytes) or ``any_id`` is set.
+    Exactly one of ``mark`` (a 0/1 image), ``ident`` (8 bytes) or ``any_id`` is set;
+    ``ident_text`` is the id as typed (to point out a hex id typed without ``0x``).  The key is
+    never part of a row or a message.
     """
 
-    key: str
+    key: str | bytes = field(repr=False)
     params: WatermarkParams
     mark: np.ndarray | None = None
     ident: bytes | None = None
     any_id: bool = False
     fpr: float = 1e-6
     max_faces: int = DEFAULT_MAX_FACES
+    ident_text: str | None = None
 
     def __post_init__(self) -> None:
         chosen = (self.mark is not None) + (self.ident is not None) + bool(self.any_id)
@@ -75,7 +79,7 @@ def expand_paths(items: Iterable[str | os.PathLike]) -> list[Path]:
         path = Path(text)
         if path.is_dir():
             for f in sorted(path.rglob("*")):
-                if f.is_file() and f.suffix.lower() in READ_SUFFIXES:
+                if f.is_file() and f.suffix.lower() in ASSET_SUFFIXES:
                     add(f)
         elif not path.exists() and glob.has_magic(text):
             matches = sorted(glob.glob(text, recursive=True))
@@ -89,8 +93,28 @@ def expand_paths(items: Iterable[str | os.PathLike]) -> list[Path]:
     return out
 
 
-def verify_file(path: str | os.PathLike, check: Check) -> dict[str, Any]:
-    """One row: path, detected, p_value, ber, id, seconds, error (never raises for bad files)."""
+#: The figures of a file's row taken from its best mesh.
+_TOP = ("p_value", "ber", "id", "id_text", "hypotheses", "threshold", "correlation", "bits")
+
+
+def _best(meshes: list[dict[str, Any]]) -> dict[str, Any]:
+    """The mesh whose figures stand for the file: the first present, else the least absent."""
+    present = [m for m in meshes if m["detected"]]
+    if present:
+        return present[0]
+    read = [m for m in meshes if m.get("p_value") is not None]
+    return min(read, key=lambda m: m["p_value"]) if read else meshes[0]
+
+
+def verify_file(
+    path: str | os.PathLike, check: Check, *, progress: Callable[[str], None] | None = None
+) -> dict[str, Any]:
+    """One row: path, detected, p_value, ber, id, seconds, error, meshes (never raises).
+
+    ``detected``: some mesh of the file carries what was sought; the figures (``p_value``,
+    ``ber``, ``id``, ``note``, ``reason``, ...) are that mesh's, or the closest one's.
+    ``progress`` is told which mesh is being read.
+    """
     t0 = time.perf_counter()
     row: dict[str, Any] = {
         "path": os.fspath(path),
@@ -102,41 +126,26 @@ def verify_file(path: str | os.PathLike, check: Check) -> dict[str, Any]:
         "error": None,
     }
     try:
-        v, f = read_mesh(path, max_faces=check.max_faces)
-        if check.mark is not None:
-            found = extract(
-                v,
-                f,
-                key=check.key,
-                mark_size=check.mark.shape[0],
-                expected=check.mark,
-                params=check.params,
-                max_faces=check.max_faces,
-            )
-            r = found.report
-            row.update(p_value=r["p_value"], ber=r["ber"])
-            row["detected"] = decide(r, fpr=check.fpr).detected
-        else:
-            got = extract_id(
-                v,
-                f,
-                key=check.key,
-                expected=check.ident,
-                params=check.params,
-                max_faces=check.max_faces,
-            )
-            row["id"] = got.id
-            if check.ident is not None:
-                r = got.report
-                row.update(p_value=r["p_value"], ber=r["ber"])
-                row["detected"] = decide(
-                    r, fpr=check.fpr, found_id=got.id, expected_id=check.ident.hex()
-                ).detected
-            else:
-                # A valid CRC after Reed-Solomon: chance 6 · 2^-32 for a mesh without an id.
-                row["detected"] = got.id is not None
-    except GridError as exc:
-        row["reason"] = str(exc)  # readable, but holds no grid: absent, not an error
+        asset = read_asset(path, max_faces=check.max_faces)
+        meshes = verify_asset(
+            asset,
+            key=check.key,
+            mark=check.mark,
+            ident=check.ident,
+            any_id=check.any_id,
+            ident_text=check.ident_text,
+            fpr=check.fpr,
+            params=check.params,
+            max_faces=check.max_faces,
+            progress=progress,
+        )
+        best = _best(meshes)
+        row.update({k: best[k] for k in _TOP if k in best})
+        for name in ("note", "reason"):
+            if name in best:
+                row[name] = best[name]
+        row["detected"] = any(m["detected"] for m in meshes)
+        row["meshes"] = meshes
     except (MeshError, OSError, ValueError) as exc:
         row["error"] = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
     row["seconds"] = round(time.perf_counter() - t0, 3)

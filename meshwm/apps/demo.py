@@ -9,7 +9,6 @@ reads the id back blind from each, prints a table and writes the meshes and ``co
 from __future__ import annotations
 
 import os
-from importlib import resources
 from pathlib import Path
 
 import numpy as np
@@ -43,8 +42,10 @@ _KEY = "meshwm-demo"
 
 
 def bundled_mesh_path() -> Path:
-    """Path of the bundled spot mesh (``meshwm/data/spot.ply``)."""
-    return Path(str(resources.files("meshwm") / "data" / "spot.ply"))
+    """Path of the bundled spot mesh (``meshwm/data/spot.ply``, :func:`meshwm.data.path`)."""
+    from meshwm.data import path
+
+    return path("spot")
 
 
 def run_demo(out: str | os.PathLike, *, echo=print) -> list[dict]:

@@ -140,6 +140,17 @@ def _face_values(
     return vals[faces].mean(axis=1)
 
 
+def _face_colors(colors: ArrayLike | None, m: int, with_values: bool) -> NDArray | None:
+    if colors is None:
+        return None
+    if with_values:
+        raise ValueError("give values or face_colors, not both")
+    rgb = np.asarray(colors, dtype=np.float64)
+    if rgb.shape != (m, 3) or not np.isfinite(rgb).all() or rgb.min() < 0 or rgb.max() > 1:
+        raise ValueError(f"face_colors must be ({m}, 3) numbers in [0, 1], got {rgb.shape}")
+    return rgb
+
+
 class _FlatTriangles(Artist):
     """Triangles in data coordinates, one colour each, painted in the order given.
 
@@ -219,6 +230,7 @@ def render_views(
     value_label: str | None = None,
     value_range: tuple[float, float] | None = None,
     up: str = "y",
+    face_colors: ArrayLike | None = None,
 ) -> bytes:
     """Draw a row of shaded views of a triangle mesh and return them as PNG bytes.
 
@@ -249,6 +261,10 @@ def render_views(
         value); faces outside are clipped to the ends and the colorbar shows arrows.
     up : {"x", "y", "z"}, optional
         World axis drawn upwards (default ``"y"``).
+    face_colors : (m, 3) array_like of float, optional
+        One RGB colour in [0, 1] per face (a texture sampled per face,
+        :func:`meshwm.apps.texture.texture_colors`), shaded like ``values``; not with
+        ``values``.
 
     Returns
     -------
@@ -283,9 +299,13 @@ def render_views(
     colormap = colormaps[cmap] if isinstance(cmap, str) else cmap
     v = _normalised(v, f)
 
-    if face_values is not None:
-        norm = _value_norm(face_values, value_range)
-        rgb = colormap(norm(face_values))[:, :3]
+    colors = _face_colors(face_colors, len(f), face_values is not None)
+    if face_values is not None or colors is not None:
+        if face_values is not None:
+            norm = _value_norm(face_values, value_range)
+            rgb = colormap(norm(face_values))[:, :3]
+        else:
+            rgb = colors
 
         def shade(i: NDArray) -> NDArray:
             return _SHADE_FLOOR + (1.0 - _SHADE_FLOOR) * i

@@ -156,7 +156,7 @@ def float32(vertices: NDArray, faces: NDArray, *, seed: int = 0) -> Mesh:
 
 
 def round_trip(vertices: NDArray, faces: NDArray, *, seed: int = 0, suffix: str = ".stl") -> Mesh:
-    """Write the mesh in a format (``.ply``, ``.obj``, ``.stl``) and read it back.
+    """Write the mesh in a format (``.ply``, ``.obj``, ``.stl``, ``.off``, ``.glb``), read it back.
 
     STL keeps no indices and stores float32: it reads back as a triangle soup, three vertices
     per face (:func:`~meshwm.mesh.io.read_mesh` merges nothing).

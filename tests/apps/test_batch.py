@@ -61,9 +61,9 @@ def test_embed_reports_the_id_and_extract_json_decodes_it(library, capsys):
     assert json.loads(capsys.readouterr().out)["id"] is None
 
 
-def test_extract_needs_an_output_or_json(library, capsys):
-    assert main(["extract", str(library / "logo.ply"), "--key", KEY]) == 2
-    assert "--json" in capsys.readouterr().err
+def test_extract_without_an_output_says_what_the_mesh_carries(library, capsys):
+    assert main(["extract", str(library / "logo.ply"), "--key", KEY]) == 0
+    assert capsys.readouterr().out.endswith("logo.ply: 32×32 mark (the bundled logo)\n")
 
 
 def test_embed_id_and_mark_exclude_each_other(tmp_path, capsys):

@@ -35,7 +35,7 @@ BAD_VALUES = [
     ("scaling", {"factor": 0.0}, r"factor must be a number > 0, got 0\.0"),
     ("scaling", {"factor": float("inf")}, r"factor must be a number > 0"),
     ("noise", {"amplitude": 2.0}, r"amplitude must be a number in \(0, 1\]"),
-    ("round_trip", {"suffix": ".off"}, r"suffix must be one of \.obj, \.ply, \.stl"),
+    ("round_trip", {"suffix": ".fbx"}, r"suffix must be one of \.glb, \.obj, \.off, \.ply, \.stl"),
     ("laplacian", {"lam": 0.0}, r"lam must be a number in \(0, 1\], got 0\.0"),
     ("laplacian", {"iterations": 0}, r"iterations must be an integer in 1\.\.1000"),
     ("meshlab_laplacian", {"iterations": 1001}, r"iterations must be an integer in 1\.\.1000"),

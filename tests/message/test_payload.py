@@ -5,15 +5,26 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from meshwm.message.payload import ID_BYTES, PAYLOAD_BITS, decode_id, encode_id, parse_id
+from meshwm.message.payload import (
+    ID_BYTES,
+    PAYLOAD_BITS,
+    decode_id,
+    encode_id,
+    format_id,
+    id_text,
+    parse_id,
+)
 
 
 @pytest.mark.parametrize(
     "text, hexid",
     [
         ("0x0123456789abcdef", "0123456789abcdef"),
-        ("0123456789ABCDEF", "0123456789abcdef"),
-        ("ff", "00000000000000ff"),
+        ("0X0123456789ABCDEF", "0123456789abcdef"),
+        ("0xff", "00000000000000ff"),
+        # No 0x: text, even when it looks like hex (the one rule, issue 15).
+        ("C0FFEE42", "4330464645453432"),
+        ("ff", "6666000000000000"),
         ("build-42", "6275696c642d3432"),
         ("ü", "c3bc000000000000"),
     ],
@@ -22,10 +33,47 @@ def test_parse_id(text, hexid):
     assert parse_id(text).hex() == hexid
 
 
-@pytest.mark.parametrize("bad", ["", "a much too long identifier", "0x0123456789abcdef0"])
-def test_parse_id_refuses(bad):
-    with pytest.raises(ValueError):
+@pytest.mark.parametrize(
+    "bad, message",
+    [
+        ("", "non-empty"),
+        ("a much too long identifier", "at most 8 bytes"),
+        ("0x0123456789abcdef0", "not 1 to 16 hex digits"),
+        ("0xZZ", "not 1 to 16 hex digits"),
+        ("0x", "not 1 to 16 hex digits"),
+        ("0x12 ", "not 1 to 16 hex digits"),
+        ("a\0b", "zero byte"),
+    ],
+)
+def test_parse_id_refuses_with_one_line(bad, message):
+    with pytest.raises(ValueError, match=message) as info:
         parse_id(bad)
+    assert "\n" not in str(info.value)
+
+
+@pytest.mark.parametrize(
+    "text, shown",
+    [
+        ("VENDOR_A", '"VENDOR_A" (0x56454e444f525f41)'),
+        ("ü", '"ü" (0xc3bc000000000000)'),
+        ("0xC0FFEE42", "0x00000000c0ffee42"),
+        ("0x4142434445464748", '"ABCDEFGH" (0x4142434445464748)'),
+        ("0x0041", "0x0000000000000041"),  # zero bytes first: not text
+        ("0x3078310000000000", "0x3078310000000000"),  # "0x1" would read back as hex
+    ],
+)
+def test_format_id_shows_text_ids_as_text_and_hex(text, shown):
+    ident = parse_id(text)
+    assert format_id(ident) == shown
+    assert format_id(ident.hex()) == shown
+
+
+@pytest.mark.parametrize("text", ["VENDOR_A", "b-42", "ü", "C0FFEE42", "0xC0FFEE42", "0x01"])
+def test_what_format_id_shows_parses_back_to_the_same_id(text):
+    ident = parse_id(text)
+    shown = id_text(ident)
+    again = shown if shown is not None else "0x" + ident.hex()
+    assert parse_id(again) == ident
 
 
 @pytest.mark.parametrize("seed", range(20))

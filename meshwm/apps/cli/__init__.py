@@ -3,7 +3,9 @@
 No algorithm lives here: each command reads its input, calls the library and writes its output.
 Any bad input (a file that cannot be read, a mesh that cannot be mapped, a bad option) ends in
 one line on stderr and exit code 2, never a traceback and never a partial output file.  Set
-``MESHWM_DEBUG=1`` to get the traceback of an unexpected error.
+``MESHWM_DEBUG=1`` to get the traceback of an unexpected error.  Results go to stdout, progress
+to stderr (only on a terminal); when stdout is closed early (``meshwm verify ... | head``) the
+command stops quietly with exit code 141, what a tool killed by SIGPIPE reports.
 
 One module per command (:data:`COMMANDS`), each with ``NAME``, a one-line ``HELP``,
 ``add_parser(subparsers)`` and ``run(args) -> int``; :mod:`~meshwm.apps.cli.options` holds the
@@ -17,6 +19,7 @@ options name.
 from __future__ import annotations
 
 import argparse
+import io
 import os
 import sys
 from collections.abc import Collection, Sequence
@@ -24,10 +27,13 @@ from typing import Protocol
 
 from meshwm import __version__
 from meshwm._malloc import keep_freed_memory
-from meshwm.apps.cli import attack, bench, demo, embed, extract, remesh, render, verify
+from meshwm.apps.cli import attack, bench, demo, docs, embed, extract, remesh, render, verify
 from meshwm.apps.cli.output import EXIT_ERROR
 
-__all__ = ["COMMANDS", "build_parser", "main"]
+__all__ = ["COMMANDS", "EXIT_PIPE", "build_parser", "main"]
+
+#: Exit code when stdout was closed before the output was written (128 + SIGPIPE).
+EXIT_PIPE = 141
 
 
 class Command(Protocol):
@@ -43,7 +49,8 @@ class Command(Protocol):
 
 #: Command name -> its module, in the order ``meshwm --help`` lists them.
 COMMANDS: dict[str, Command] = {
-    module.NAME: module for module in (remesh, embed, extract, verify, attack, render, demo, bench)
+    module.NAME: module
+    for module in (remesh, embed, extract, verify, attack, render, demo, bench, docs)
 }
 
 
@@ -118,7 +125,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"meshwm: error: {exc}", file=sys.stderr)
         return EXIT_ERROR
     try:
-        return int(args.run(args))
+        code = int(args.run(args))
+        sys.stdout.flush()  # a closed pipe shows here, not in the interpreter's last flush
+        return code
+    except BrokenPipeError:
+        _silence_stdout()
+        return EXIT_PIPE
     except (ValueError, TypeError, OSError) as exc:
         message = " ".join(str(exc).split()) or type(exc).__name__
         print(f"meshwm: error: {message}", file=sys.stderr)
@@ -132,3 +144,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         message = " ".join(str(exc).split()) or type(exc).__name__
         print(f"meshwm: internal error: {type(exc).__name__}: {message}", file=sys.stderr)
         return EXIT_ERROR
+
+
+def _silence_stdout() -> None:
+    """Point stdout at the null device, so the interpreter's last flush cannot fail again."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        os.close(devnull)
+    except (OSError, ValueError, AttributeError, io.UnsupportedOperation):
+        pass  # not a real file (a test's capture): nothing will flush to a closed pipe

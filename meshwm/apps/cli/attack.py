@@ -1,5 +1,10 @@
 """``meshwm attack``: apply one attack of the registry to a mesh.
 
+An STL file stores every triangle's corners apart (a soup): attacked as it is, a noise or
+smoothing attack would move the copies of a vertex apart and crack the surface.  The corners
+are welded first, by exact position (:func:`meshwm.attacks.seams.weld_by_position`), then
+attacked and written back, so the output is as closed as the input.
+
 Every attack parameter of the registry is an option ``--NAME V``: the options are the union over
 all attacks (so they can come in any order and ``--help`` lists them); :func:`run` refuses those
 that the chosen ``--kind`` does not take.
@@ -43,7 +48,7 @@ def _epilog() -> str:
             for p in ATTACK_PARAMS[kind]
         )
         lines.append(f"  {kind}: {text or 'none'}")
-    lines.append("docs/attacks.md defines every attack and its units.")
+    lines.append("meshwm docs attacks defines every attack and its units.")
     return "\n".join(lines)
 
 
@@ -57,7 +62,8 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
         description=(
             "Apply one seeded, deterministic attack from the registry (meshwm.attacks.ATTACKS) "
             "and write the result. gim_* attacks are the paper's, on the geometry image, and "
-            "need a mesh written by meshwm."
+            "need a grid mesh (embed --grid). An STL input is welded first (corners at the same "
+            "position merged), attacked, and written back."
         ),
         epilog=_epilog(),
         formatter_class=argparse.RawDescriptionHelpFormatter,
@@ -114,6 +120,13 @@ def run(args: argparse.Namespace) -> int:
     attack_options = {name: spec[name].parse(text, args.kind) for name, text in given.items()}
     check_output(args.output, overwrite_input=args.input, force=args.force)
     vertices, faces = read_mesh(args.input)
+    welded = None
+    if args.input.suffix.lower() == ".stl":
+        from meshwm.attacks.seams import weld_by_position
+
+        corners = len(vertices)
+        vertices, faces = weld_by_position(vertices, faces)
+        welded = {"corners": corners, "vertices": len(vertices)}
     out_v, out_f = apply_attack(args.kind, vertices, faces, seed=args.seed, **attack_options)
     write_mesh(args.output, out_v, out_f, overwrite_input=args.input, force=args.force)
     report = {
@@ -128,9 +141,16 @@ def run(args: argparse.Namespace) -> int:
         "faces_out": len(out_f),
         "seconds": round(time.perf_counter() - started, 3),
     }
+    if welded is not None:
+        report["welded"] = welded
     if args.json:
         print(json.dumps(report, indent=2, sort_keys=True))
     else:
+        if welded is not None:
+            print(
+                f"{report['input']}: an STL soup; its {welded['corners']} corners were welded "
+                f"into {welded['vertices']} vertices (exact positions) before the attack"
+            )
         params = ", ".join(f"{k}={v}" for k, v in report["params"].items())
         print(
             f"{report['input']} -> {report['output']}: {args.kind}({params}), seed {args.seed}: "

@@ -26,7 +26,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
             "Mark the bundled models at the paper's three PSNRs and run its attacks (paper "
             "table, extracted marks, curves of corr2 against PSNR), then run the mesh attacks "
             "on every mesh of --meshes. Writes Markdown, JSON and PNG files into --out; "
-            "docs/bench.md explains them."
+            "meshwm docs bench explains them."
         ),
     )
     parser.add_argument(

@@ -1,11 +1,19 @@
-"""``meshwm extract``: read the mark from a mesh, blind (the mesh and the key only)."""
+"""``meshwm extract``: what each mesh of a file carries, blind (the file and the key only).
+
+An id is reported as such (text and hex); a mesh without one is read as a mark, written as a
+PNG with ``-o`` and compared with the bundled logo (or ``--mark``).  A mesh that carries an id
+gets no mark image: the noise it would read is not written.
+"""
 
 from __future__ import annotations
 
 import argparse
 import json
+import re
+import sys
 import time
 from pathlib import Path
+from typing import Any
 
 from meshwm.apps.cli import options
 from meshwm.apps.cli.output import EXIT_OK, check_png, rounded
@@ -13,7 +21,7 @@ from meshwm.apps.cli.output import EXIT_OK, check_png, rounded
 __all__ = ["HELP", "NAME", "add_parser", "run"]
 
 NAME = "extract"
-HELP = "read the mark from a mesh (blind: the mesh and the key only)"
+HELP = "read the id or the mark of each mesh of a file (blind: the file and the key only)"
 
 
 def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
@@ -21,7 +29,11 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
     parser = subparsers.add_parser(
         NAME,
         help=HELP,
-        description="Find the grid in the mesh, read the mark and write it as a PNG.",
+        description=(
+            "Read every mesh of the file: report the id it carries, or read its mark, "
+            "compare it with the bundled logo (or --mark) and write it as a PNG (-o). A file "
+            "of several meshes gets one PNG per mesh, named MARK-<mesh>.png."
+        ),
     )
     parser.add_argument("input", type=Path, help="received mesh file")
     parser.add_argument("-o", "--output", type=Path, help="mark image to write (.png)")
@@ -38,39 +50,76 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
     return parser
 
 
+def _png_for(output: Path, name: str, several: bool) -> Path:
+    if not several:
+        return output
+    safe = re.sub(r"[^A-Za-z0-9._-]+", "_", name).strip("_") or "mesh"
+    return output.with_name(f"{output.stem}-{safe}.png")
+
+
 def run(args: argparse.Namespace) -> int:
-    """Extract the mark of ``args.input``; write it to ``args.output`` and/or print the report.
-
-    The mesh is read once (one :class:`meshwm.watermark.Decoder`) for the mark and, with
-    ``--json``, for the id it may carry.
-    """
-    from meshwm.mesh.io import read_mesh
+    """Read ``args.input``; write the marks found, print what each mesh carries."""
+    from meshwm.apps.progress import Status
+    from meshwm.mesh.asset import read_asset
     from meshwm.message.mark import load_mark, save_mark
-    from meshwm.watermark import Decoder
+    from meshwm.watermark.assets import extract_asset
 
-    if args.output is None and not args.json:
-        raise ValueError("give -o MARK.png to write the mark, or --json to print the report")
+    key = options.key_of(args)
     if args.output is not None:
         check_png(args.output, [args.input], what="mark")
     expected = load_mark(args.mark, size=args.mark_size) if args.mark else None
-    vertices, faces = read_mesh(args.input, max_faces=args.max_faces)
     started = time.perf_counter()
-    reader = Decoder(
-        vertices, faces, params=options.watermark_params(args), max_faces=args.max_faces
-    )
-    result = reader.extract(key=args.key, mark_size=args.mark_size, expected=expected)
-    result.report["seconds"] = time.perf_counter() - started  # as meshwm.watermark.extract
-    report = {"input": str(args.input), "output": None, **result.report}
-    if args.output is not None:
-        save_mark(args.output, result.mark)
-        report["output"] = str(args.output)
+    with Status(sys.stderr) as status:
+        status.stage(f"reading {args.input}")
+        asset = read_asset(args.input, max_faces=args.max_faces)
+        rows = extract_asset(
+            asset,
+            key=key,
+            mark_size=args.mark_size,
+            expected=expected,
+            params=options.watermark_params(args),
+            max_faces=args.max_faces,
+            progress=status.stage,
+        )
+    if all(row["kind"] is None for row in rows):
+        raise ValueError(f"{args.input}: " + "; ".join(row["reason"] for row in rows))
+    several = len(rows) > 1
+    for row in rows:
+        mark = row.pop("mark", None)
+        row["output"] = None
+        if mark is not None and args.output is not None:
+            target = _png_for(args.output, row["name"], several)
+            save_mark(target, mark)
+            row["output"] = str(target)
+    report: dict[str, Any] = {"input": str(args.input), "meshes": [rounded(r) for r in rows]}
+    if not several:
+        report.update({k: v for k, v in rows[0].items() if k != "name"})
+    report["seconds"] = round(time.perf_counter() - started, 3)
     if args.json:
-        # The id payload, if the mesh carries one (None otherwise: the CRC decides).
-        report["id"] = reader.extract_id(key=args.key).id
         print(json.dumps(rounded(report), indent=2, sort_keys=True))
     else:
-        line = f"{args.input}: {args.mark_size}×{args.mark_size} mark -> {args.output}"
-        if expected is not None:
-            line += f" (BER {report['ber']:.4f}, corr2 {report['correlation']:.4f})"
-        print(line)
+        for row in rows:
+            where = f"{args.input} [{row['name']}]" if several else str(args.input)
+            print(f"{where}: {_describe(row, args)}")
     return EXIT_OK
+
+
+def _describe(row: dict[str, Any], args: argparse.Namespace) -> str:
+    from meshwm.message.payload import format_id
+
+    if row["kind"] is None:
+        return f"nothing read ({row['reason']})"
+    if row["kind"] == "id":
+        text = f"id {format_id(row['id'])}"
+        if args.output is not None:
+            text += "; this mesh carries an id, not a mark: no mark image written"
+        return text
+    side = args.mark_size
+    text = f"{side}×{side} mark" + (f" -> {row['output']}" if row["output"] else "")
+    if "ber" in row:
+        text += f" (BER {row['ber']:.4f}, corr2 {row['correlation']:.4f})"
+    elif row.get("logo"):
+        text += " (the bundled logo)"
+    elif "logo" in row:
+        text += " (not the bundled logo: another mark, a wrong key, or no mark)"
+    return text

@@ -14,7 +14,9 @@ from __future__ import annotations
 
 import argparse
 import math
-from collections.abc import Callable
+import os
+from collections.abc import Callable, Mapping
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from meshwm._validate import (
@@ -30,6 +32,8 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers only
 
 __all__ = [
     "DEFAULT_MARK_SIZE",
+    "KEY_ENV",
+    "add_key_options",
     "add_max_faces",
     "add_watermark_options",
     "bounded",
@@ -37,10 +41,12 @@ __all__ = [
     "ident",
     "integer",
     "key",
+    "key_of",
     "mark_size",
     "names",
     "positive_int",
     "probability",
+    "read_key_file",
     "real",
     "seed",
     "watermark_params",
@@ -48,6 +54,10 @@ __all__ = [
 
 #: Side of the mark when ``--mark-size`` is not given (the bundled logo's).
 DEFAULT_MARK_SIZE = 32
+#: The environment variable that may hold the key (when neither --key nor --key-file is given).
+KEY_ENV = "MESHWM_KEY"
+#: A key file longer than this is refused (a key is a line of text or a few bytes).
+MAX_KEY_FILE = 1 << 16
 
 
 def integer(
@@ -151,7 +161,7 @@ def real(text: str) -> float:
 
 
 def ident(text: str) -> bytes:
-    """A 64-bit id: 16 hex digits or 8 bytes of text (:func:`meshwm.message.payload.parse_id`)."""
+    """A 64-bit id: ``0x`` and hex digits, or up to 8 bytes of text (``parse_id``'s one rule)."""
     from meshwm.message.payload import parse_id
 
     try:
@@ -161,10 +171,104 @@ def ident(text: str) -> bytes:
 
 
 def key(text: str) -> str:
-    """The secret key: any non-empty string."""
+    """The secret key given on the command line: any non-empty string (never echoed)."""
     if not text:
         raise argparse.ArgumentTypeError("the key must not be empty")
     return text
+
+
+def read_key_file(path: Path) -> bytes:
+    """The key stored in ``path``: its bytes, one trailing newline (LF or CRLF) removed.
+
+    The same text given with ``--key`` is the same key (a string key is used as its UTF-8
+    bytes).  Errors name the file, never its content.
+
+    Raises
+    ------
+    ValueError
+        The file is missing, unreadable, a folder, larger than 64 KiB or empty.
+    """
+    try:
+        with open(path, "rb") as stream:
+            data = stream.read(MAX_KEY_FILE + 1)
+    except IsADirectoryError:
+        raise ValueError(f"--key-file {path}: is a folder, not a key file") from None
+    except OSError as exc:
+        raise ValueError(f"--key-file {path}: cannot read it ({exc.strerror or 'error'})") from None
+    if len(data) > MAX_KEY_FILE:
+        raise ValueError(f"--key-file {path}: larger than {MAX_KEY_FILE} bytes, not a key file")
+    if data.endswith(b"\r\n"):
+        data = data[:-2]
+    elif data.endswith(b"\n"):
+        data = data[:-1]
+    if not data:
+        raise ValueError(f"--key-file {path}: the file is empty")
+    return data
+
+
+def key_of(args: argparse.Namespace, environ: Mapping[str, str] | None = None) -> str | bytes:
+    """The secret key from exactly one source: ``--key``, ``--key-file`` or ``$MESHWM_KEY``.
+
+    Two sources at once are refused rather than ranked: a key left in the environment must
+    not silently win over (or lose to) the one given on the line, since the wrong key only
+    shows as "absent".  The messages name the sources, never the key.
+
+    Raises
+    ------
+    ValueError
+        No source, or more than one.
+
+    Examples
+    --------
+    >>> key_of(argparse.Namespace(key="k", key_file=None), environ={})
+    'k'
+    >>> key_of(argparse.Namespace(key=None, key_file=None), environ={"MESHWM_KEY": "k"})
+    'k'
+    >>> key_of(argparse.Namespace(key="k", key_file=None), environ={"MESHWM_KEY": "k"})
+    Traceback (most recent call last):
+    ...
+    ValueError: the key is given twice, by --key and by $MESHWM_KEY; give exactly one
+    """
+    environ = os.environ if environ is None else environ
+    sources: list[tuple[str, Callable[[], str | bytes]]] = []
+    given = getattr(args, "key", None)
+    if given is not None:
+        sources.append(("--key", lambda: given))
+    path = getattr(args, "key_file", None)
+    if path is not None:
+        sources.append(("--key-file", lambda: read_key_file(path)))
+    env = environ.get(KEY_ENV)
+    if env is not None:
+        sources.append((f"${KEY_ENV}", lambda: env))
+    if not sources:
+        raise ValueError(f"no key: give --key-file PATH, set {KEY_ENV}, or give --key KEY")
+    if len(sources) > 1:
+        names = " and by ".join(name for name, _ in sources)
+        raise ValueError(f"the key is given twice, by {names}; give exactly one")
+    name, read = sources[0]
+    value = read()
+    if not value:
+        raise ValueError(f"the key from {name} is empty")
+    return value
+
+
+def add_key_options(parser: argparse.ArgumentParser) -> None:
+    """``--key`` and ``--key-file``; without either the key comes from ``$MESHWM_KEY``."""
+    group = parser.add_mutually_exclusive_group()
+    group.add_argument(
+        "--key-file",
+        type=Path,
+        metavar="PATH",
+        help=f"read the secret key from this file (one trailing newline ignored); or set "
+        f"{KEY_ENV}; exactly one key source",
+    )
+    group.add_argument(
+        "--key",
+        type=key,
+        metavar="KEY",
+        help="the secret key as text (visible in shell history and the process list: prefer "
+        f"--key-file or {KEY_ENV})",
+    )
 
 
 def add_max_faces(parser: argparse.ArgumentParser) -> None:
@@ -203,7 +307,7 @@ def add_watermark_options(parser: argparse.ArgumentParser, *, size: bool) -> Non
     from meshwm.profiles import DEFAULT_PROFILE, PROFILES
 
     defaults = WatermarkParams()
-    parser.add_argument("--key", type=key, required=True, help="the secret key (any string)")
+    add_key_options(parser)
     summaries = "; ".join(f"'{p.name}': {p.summary}" for p in PROFILES.values())
     parser.add_argument(
         "--profile",

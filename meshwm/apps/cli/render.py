@@ -30,7 +30,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
         description=(
             "Draw a row of flat-shaded orthographic views of the mesh. With --compare, colour "
             "it by the distance from each of its vertices to the surface of OTHER, in % of "
-            "OTHER's bounding-box diagonal. docs/render.md describes the pictures."
+            "OTHER's bounding-box diagonal. meshwm docs render describes the pictures."
         ),
     )
     parser.add_argument("input", type=Path, help="mesh file to draw")
@@ -52,6 +52,12 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
         metavar="PX",
         help=f"picture width in pixels, {WIDTH_RANGE[0]}..{WIDTH_RANGE[1]} (900)",
     )
+    parser.add_argument(
+        "--texture",
+        action="store_true",
+        help="colour each face by the file's texture (its UVs and material image, e.g. an "
+        "OBJ's .mtl), vertex colours or material colour",
+    )
     parser.add_argument("--json", action="store_true", help="print the report as JSON")
     parser.add_argument(
         "--force", action="store_true", help="allow the output to overwrite an input file"
@@ -69,11 +75,28 @@ def run(args: argparse.Namespace) -> int:
     started = time.perf_counter()
     out = args.output
     check_png(out, [args.input, args.compare], what="picture", force=args.force)
-    vertices, faces = read_mesh(args.input)
     report: dict[str, Any] = {"input": str(args.input), "output": str(out)}
-    if args.compare is None:
+    if args.texture and args.compare is not None:
+        raise ValueError("--texture and --compare exclude each other: draw a look or a distance")
+    if args.texture:
+        from meshwm.apps.texture import texture_colors
+
+        look = texture_colors(args.input)
+        vertices, faces = look.vertices, look.faces
+        report["textured_faces"] = look.textured
+        png = render_views(
+            vertices,
+            faces,
+            views=args.views,
+            size=args.size,
+            title=args.input.name,
+            face_colors=look.colors,
+        )
+    elif args.compare is None:
+        vertices, faces = read_mesh(args.input)
         png = render_views(vertices, faces, views=args.views, size=args.size, title=args.input.name)
     else:
+        vertices, faces = read_mesh(args.input)
         other_v, other_f = read_mesh(args.compare)
         png, stats = render_comparison(
             vertices,

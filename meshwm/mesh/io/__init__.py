@@ -8,8 +8,9 @@ face lines (OBJ, ASCII STL) refuses absurd element counts, counts the file is to
 and a few defects trimesh would silently accept (OBJ index 0, short faces, inconsistent PLY
 list lengths).
 
-Writing serialises to bytes (PLY and OBJ by this package, float64-exact; STL by trimesh), then
-replaces the target atomically.
+Writing serialises to bytes (PLY, OBJ and OFF by this package, float64-exact; STL and GLB by
+trimesh), then replaces the target atomically.  This package reads and writes bare triangle
+meshes; :mod:`meshwm.mesh.asset` keeps everything else a file carries.
 
 Layout: :mod:`~meshwm.mesh.io.registry` maps each suffix to its format module (``ply``,
 ``obj``, ``stl``, ``off``, ``glb``: pre-check and writer), :mod:`~meshwm.mesh.io.read` and

@@ -1,13 +1,19 @@
-"""GLB (binary glTF 2): the pre-check of the header, the JSON chunk and the accessor counts."""
+"""GLB (binary glTF 2): the pre-check of the header, the JSON chunk and the accessor counts; the
+writer (trimesh's, float32 positions, its ``generator`` signature removed).
+"""
 
 from __future__ import annotations
 
 import json
 import struct
+from typing import cast
 
-from meshwm.mesh.io.common import Declared, vertex_limit
+import numpy as np
+from numpy.typing import NDArray
 
-__all__ = ["precheck"]
+from meshwm.mesh.io.common import Declared, quiet_trimesh, vertex_limit
+
+__all__ = ["precheck", "write"]
 
 
 def precheck(data: bytes, max_faces: int) -> Declared:
@@ -42,3 +48,15 @@ def precheck(data: bytes, max_faces: int) -> Declared:
                 f"GLB accessor {i} declares {count} elements, more than the limit of {limit}"
             )
     return Declared()
+
+
+def write(vertices: NDArray[np.float64], faces: NDArray[np.int64]) -> bytes:
+    """GLB written by trimesh (float32 positions, one mesh), naming no tool."""
+    import trimesh  # heavy: imported when a GLB file is written
+
+    from meshwm.mesh.asset.convert import scrub
+
+    with quiet_trimesh():
+        mesh = trimesh.Trimesh(vertices=vertices, faces=faces, process=False)
+        data = bytes(cast(bytes, mesh.export(file_type="glb")))
+    return scrub(data, ".glb")

@@ -59,4 +59,4 @@ def write(vertices: NDArray[np.float64], faces: NDArray[np.int64]) -> bytes:
     """OBJ text with each coordinate written as Python's shortest round-trip ``repr``."""
     vertex_text = ("v {!r} {!r} {!r}\n" * len(vertices)).format(*vertices.ravel().tolist())
     face_text = ("f {} {} {}\n" * len(faces)).format(*(faces + 1).ravel().tolist())
-    return ("# written by meshwm\n" + vertex_text + face_text).encode("ascii")
+    return (vertex_text + face_text).encode("ascii")

@@ -1,12 +1,19 @@
-"""OFF: the pre-check of the header counts against the limits and the size of the file."""
+"""OFF: the pre-check of the header counts against the limits and the size of the file; the writer.
+
+Writing gives text with every coordinate as Python's shortest round-trip ``repr`` (float64
+values read back exactly), no comment.
+"""
 
 from __future__ import annotations
 
 import re
 
+import numpy as np
+from numpy.typing import NDArray
+
 from meshwm.mesh.io.common import COUNT, Declared, vertex_limit
 
-__all__ = ["precheck"]
+__all__ = ["precheck", "write"]
 
 _OFF_KEYWORD = re.compile(r"[A-Z0-9]*OFF")
 
@@ -43,3 +50,11 @@ def precheck(data: bytes, max_faces: int) -> Declared:
             f"least {needed} bytes, but the file has {len(data)} (truncated?)"
         )
     return Declared(vertices=n_vertices, polygons=n_faces, text=True)
+
+
+def write(vertices: NDArray[np.float64], faces: NDArray[np.int64]) -> bytes:
+    """OFF text, each coordinate written as Python's shortest round-trip ``repr``."""
+    header = f"OFF\n{len(vertices)} {len(faces)} 0\n"
+    vertex_text = ("{!r} {!r} {!r}\n" * len(vertices)).format(*vertices.ravel().tolist())
+    face_text = ("3 {} {} {}\n" * len(faces)).format(*faces.ravel().tolist())
+    return (header + vertex_text + face_text).encode("ascii")

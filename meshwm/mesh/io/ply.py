@@ -17,7 +17,7 @@ from numpy.typing import NDArray
 from meshwm.errors import MeshError
 from meshwm.mesh.io.common import COUNT, Declared, vertex_limit
 
-__all__ = ["check_loaded", "precheck", "write"]
+__all__ = ["PlyElement", "check_loaded", "parse_header", "precheck", "write"]
 
 #: A PLY header longer than this is refused (real headers are a few hundred bytes).
 _MAX_PLY_HEADER = 1 << 20
@@ -33,18 +33,23 @@ _PLY_FORMATS = ("ascii", "binary_little_endian", "binary_big_endian")
 
 
 @dataclass
-class _PlyElement:
+class PlyElement:
+    """One ``element`` of a PLY header: its name, row count and properties."""
+
     name: str
     count: int
     #: (name, scalar type, list-count type or None)
     properties: list[tuple[str, str, str | None]] = field(default_factory=list)
 
 
-def _parse_ply_header(data: bytes) -> tuple[str, list[_PlyElement], int]:
-    """Strictly parse a PLY header; return (format, elements, offset of the data section)."""
+def parse_header(data: bytes) -> tuple[str, list[PlyElement], int]:
+    """Strictly parse a PLY header; return (format, elements, offset of the data section).
+
+    Raises :class:`ValueError` with a one-line message for anything but a well-formed header.
+    """
     if not (data.startswith(b"ply\n") or data.startswith(b"ply\r\n")):
         raise ValueError("not a PLY file (the first line is not 'ply')")
-    elements: list[_PlyElement] = []
+    elements: list[PlyElement] = []
     encoding = ""
     pos = 0
     line_no = 0
@@ -80,7 +85,7 @@ def _parse_ply_header(data: bytes) -> tuple[str, list[_PlyElement], int]:
                 raise ValueError(f"bad PLY element line {line[:60]!r} (count must be >= 0)")
             if any(e.name == words[1] for e in elements):
                 raise ValueError(f"PLY element {words[1][:20]!r} is declared twice")
-            elements.append(_PlyElement(words[1], int(words[2])))
+            elements.append(PlyElement(words[1], int(words[2])))
         elif keyword == "property":
             if not elements:
                 raise ValueError("PLY property declared before any element")
@@ -100,7 +105,7 @@ def _parse_ply_header(data: bytes) -> tuple[str, list[_PlyElement], int]:
     return encoding, elements, pos
 
 
-def _check_ply_ascii_rows(text_rows: list[str], elements: list[_PlyElement]) -> None:
+def _check_ply_ascii_rows(text_rows: list[str], elements: list[PlyElement]) -> None:
     """Check the token count of every ASCII row whose layout is known from the header.
 
     Rows of elements made of scalars and at most one trailing list are checked: a row must
@@ -138,7 +143,7 @@ def _check_ply_ascii_rows(text_rows: list[str], elements: list[_PlyElement]) -> 
 
 def precheck(data: bytes, max_faces: int) -> Declared:
     """Check the header and the size of the data section; what the loaded mesh must hold."""
-    encoding, elements, start = _parse_ply_header(data)
+    encoding, elements, start = parse_header(data)
     by_name = {e.name: e for e in elements}
     vertex = by_name.get("vertex")
     if vertex is None:
@@ -212,7 +217,6 @@ def check_loaded(scene: Any, declared: Declared) -> None:
 _PLY_HEADER = (
     "ply\n"
     "format binary_little_endian 1.0\n"
-    "comment written by meshwm\n"
     "element vertex {n_vertices}\n"
     "property double x\n"
     "property double y\n"

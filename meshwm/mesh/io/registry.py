@@ -4,7 +4,7 @@ A format is one module (``ply.py``, ``obj.py``, ...) plus one entry here: a :cla
 in :data:`READERS` for reading, a serialiser in :data:`WRITERS` for writing.  The format
 modules import only the standard library and NumPy at the top, so importing the registry
 (and :mod:`meshwm.mesh.io`) loads no mesh library; trimesh is imported when a file is read
-(:mod:`meshwm.mesh.io.load`) or an STL file written.
+(:mod:`meshwm.mesh.io.load`) or an STL or GLB file written.
 """
 
 from __future__ import annotations
@@ -64,7 +64,9 @@ READERS: dict[str, Reader] = {
 
 #: Registry of writable suffixes (lower case) -> serialiser.
 WRITERS: dict[str, Writer] = {
+    ".glb": glb.write,
     ".obj": obj.write,
+    ".off": off.write,
     ".ply": ply.write,
     ".stl": stl.write,
 }

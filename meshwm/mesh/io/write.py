@@ -34,10 +34,10 @@ def check_output_suffix(path: PathLike) -> None:
     Examples
     --------
     >>> check_output_suffix("out.PLY")
-    >>> check_output_suffix("out.glb")  # doctest: +ELLIPSIS
+    >>> check_output_suffix("out.fbx")  # doctest: +ELLIPSIS
     Traceback (most recent call last):
     ...
-    meshwm.errors.MeshError: out.glb: cannot write '.glb' files; valid output suffixes are ...
+    meshwm.errors.MeshError: out.fbx: cannot write '.fbx' files; valid output suffixes are ...
     """
     suffix = Path(path).suffix.lower()
     if suffix not in WRITERS:
@@ -82,14 +82,15 @@ def write_mesh(
     overwrite_input: PathLike | None = None,
     force: bool = False,
 ) -> None:
-    """Write a triangle mesh to an OBJ, PLY or STL file, atomically.
+    """Write a triangle mesh to an OBJ, PLY, STL, OFF or GLB file, atomically.
 
     Parameters
     ----------
     path : str or os.PathLike
         Output file; the (case-insensitive) suffix picks the format: ``.ply`` (binary
         little-endian, float64 coordinates), ``.obj`` (text, every coordinate written with
-        the shortest representation that reads back exactly) or ``.stl`` (binary).
+        the shortest representation that reads back exactly), ``.stl`` (binary), ``.off``
+        (text, exact like OBJ) or ``.glb`` (float32).  No file names the tool that wrote it.
     vertices : (n, 3) array_like of float
         Vertex positions; must be finite.
     faces : (m, 3) array_like of int

@@ -33,7 +33,7 @@ def _awkward_mesh() -> tuple[np.ndarray, np.ndarray]:
     return vertices, faces
 
 
-@pytest.mark.parametrize("suffix", [".ply", ".obj"])
+@pytest.mark.parametrize("suffix", [".ply", ".obj", ".off"])
 @pytest.mark.parametrize("mesh", ["spot", "awkward"])
 def test_round_trip_is_exact(
     suffix: str, mesh: str, tmp_path: Path, spot: tuple[np.ndarray, np.ndarray]
@@ -47,7 +47,7 @@ def test_round_trip_is_exact(
     assert np.array_equal(read_faces, faces)
 
 
-@pytest.mark.parametrize("suffix", [".ply", ".obj", ".stl", ".PLY"])
+@pytest.mark.parametrize("suffix", [".ply", ".obj", ".stl", ".PLY", ".off", ".glb"])
 def test_output_is_deterministic(
     suffix: str, tmp_path: Path, spot: tuple[np.ndarray, np.ndarray]
 ) -> None:
@@ -57,6 +57,15 @@ def test_output_is_deterministic(
     first = (tmp_path / f"a{suffix}").read_bytes()
     assert first == (tmp_path / f"b{suffix}").read_bytes()
     assert len(first) > 50_000
+    assert b"meshwm" not in first and b"trimesh" not in first  # no file names a tool
+
+
+def test_glb_round_trip_is_float32(tmp_path: Path, spot: tuple[np.ndarray, np.ndarray]) -> None:
+    vertices, faces = spot
+    write_mesh(tmp_path / "x.glb", vertices, faces)
+    read_vertices, read_faces = read_mesh(tmp_path / "x.glb")
+    assert np.array_equal(read_vertices, vertices.astype(np.float32))
+    assert np.array_equal(read_faces, faces)
 
 
 def test_write_does_not_modify_inputs(tmp_path: Path, spot: tuple[np.ndarray, np.ndarray]) -> None:
@@ -68,10 +77,10 @@ def test_write_does_not_modify_inputs(tmp_path: Path, spot: tuple[np.ndarray, np
 
 
 def test_unknown_output_suffix(tmp_path: Path, spot: tuple[np.ndarray, np.ndarray]) -> None:
-    assert WRITE_SUFFIXES == (".obj", ".ply", ".stl")
+    assert WRITE_SUFFIXES == (".glb", ".obj", ".off", ".ply", ".stl")
     check_output_suffix(tmp_path / "fine.STL")
-    for name in ("mesh.glb", "mesh.off", "mesh"):
-        with pytest.raises(MeshError, match=r"valid output suffixes are \.obj, \.ply, \.stl"):
+    for name in ("mesh.fbx", "mesh.gltf", "mesh"):
+        with pytest.raises(MeshError, match=r"valid output suffixes are \.glb, \.obj, \.off, "):
             check_output_suffix(tmp_path / name)
     with pytest.raises(MeshError, match=r"'\.xyz'") as error:
         write_mesh(tmp_path / "mesh.xyz", *spot)
