@@ -28,11 +28,13 @@ from scipy.spatial import cKDTree
 
 from meshwm.errors import CapacityError, MeshError
 from meshwm.gim.sampling import Sampling
+from meshwm.gim.sphere import point_set
 from meshwm.gim.surface import SURFACE_SIZES, Surface, SurfaceImage, sample_surface, surface_of
 from meshwm.gim.transfer import Transfer
 from meshwm.params import WatermarkParams
 from meshwm.profiles import get_profile
 from meshwm.readers.base import SampledImage
+from meshwm.readers.radial import MIN_POINTS
 from meshwm.signal.fill import fill_missing
 from meshwm.watermark.extract import Decoder
 from meshwm.watermark.radial import RADIAL_PASSES, embed_radial, radial_read, radial_size
@@ -69,6 +71,9 @@ KEEP_ENERGY = "dirichlet"
 _TRANSFER_PASSES = 1
 #: Radial passes after a peak clamp moved a projection off its lattice point.
 _RADIAL_REPAIRS = 2
+#: A read-back with more wrong bits than this is another map's, not a weak mark's: no other
+#: size will do better (a symmetric shape, whose cut start the mark itself decides).
+_AT_CHANCE = 0.3
 
 
 class KeptMark(NamedTuple):
@@ -243,6 +248,8 @@ def _carry_radial(
     n = radial_size(len(bits))
     d = np.array(displacement, dtype=np.float64)
     report: dict[str, Any] = {"radial_n": n}
+    if len(point_set(positions, faces).points) < MIN_POINTS:  # too few to carry it
+        return _clamp_peaks(positions, clamp_faces, d), {"radial_n": None, "radial": "too small"}
     passes = RADIAL_PASSES
     for _ in range(1 + _RADIAL_REPAIRS):
         try:
@@ -363,6 +370,11 @@ def embed_kept(
         A payload no size carries (the message names the largest that fits).
     """
     surface = surface_of(vertices, faces, max_faces=max_faces)
+    if int(surface.used.sum()) < len(bits):  # fewer vertices than bits: refused at once
+        raise CapacityError(
+            f"a mesh of {int(surface.used.sum())} vertices cannot carry a {len(bits)}-bit "
+            f"payload (a 64-bit id's needs about 2,000)"
+        )
     tried: dict[str, Any] = {}
     worst = 1.0
     for n in _size_order(sizes, len(bits)):
@@ -386,6 +398,13 @@ def embed_kept(
         if ok:
             report = {**attempt.report, "n": n, "sizes_tried": tried, **_clean_counts(surface)}
             return KeptMark(out, report)
+        if ber > _AT_CHANCE:
+            # Not a weak mark but another map: the marked mesh's own cut is not the input's.
+            raise CapacityError(
+                f"this mesh does not carry a blind mark: read back, its surface map gives "
+                f"{ber:.0%} wrong bits, as another map would; a symmetric shape (a sphere, a "
+                f"capsule, a cube) has no cut start of its own, and the mark decides it"
+            )
         worst = min(worst, ber)
     raise CapacityError(
         f"this mesh does not carry the {len(bits)}-bit payload: read back blind, the best "

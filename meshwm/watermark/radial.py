@@ -104,7 +104,13 @@ def _solve(
         return out
 
     k = len(change)
-    gram = LinearOperator((k, k), matvec=lambda y: forward(adjoint(y) / cost), dtype=np.float64)
+    # A small ridge keeps the normal matrix definite where the constraints are dependent (a
+    # point set barely larger than the payload).
+    ones = np.ones(k) / np.sqrt(k)
+    ridge = 1e-9 * float(np.linalg.norm(forward(adjoint(ones) / cost)))
+    gram = LinearOperator(
+        (k, k), matvec=lambda y: forward(adjoint(y) / cost) + ridge * y, dtype=np.float64
+    )
     y, _ = cg(gram, change, rtol=1e-10, maxiter=400)
     return adjoint(y) / cost
 

@@ -151,3 +151,20 @@ def test_the_genus_8_plate_is_marked_within_the_hausdorff_cap():
     np.testing.assert_array_equal(marked.faces, f)
     assert marked.report["peak"] <= 1.3e-3
     assert Decoder(marked.vertices, f).extract_id(key=KEY).id == IDENT.hex()
+
+
+def test_a_mesh_smaller_than_the_payload_is_refused_at_once():
+    import trimesh
+
+    box = trimesh.creation.box()  # 8 vertices
+    with pytest.raises(CapacityError, match="8 vertices cannot carry a 256-bit"):
+        embed(np.asarray(box.vertices), np.asarray(box.faces), key=KEY, ident=IDENT)
+
+
+@pytest.mark.slow
+def test_a_symmetric_shape_is_refused_with_the_reason():
+    import trimesh
+
+    sphere = trimesh.creation.icosphere(subdivisions=4)  # 2562 vertices, all tied for the start
+    with pytest.raises(CapacityError, match="symmetric shape"):
+        embed(np.asarray(sphere.vertices), np.asarray(sphere.faces), key=KEY, ident=IDENT)
