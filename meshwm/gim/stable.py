@@ -46,6 +46,9 @@ through the fan it is reached by.
 
 from __future__ import annotations
 
+import hashlib
+import threading
+from collections import OrderedDict
 from typing import NamedTuple
 
 import igl
@@ -301,7 +304,7 @@ def _sources(smooth: NDArray[np.float64], faces: NDArray[np.int64]) -> _Sources:
     tips = tips[np.argsort(-radial[tips], kind="stable")][:TIPS]
     far = int(np.argmax(radial))  # the farthest vertex, even if a neighbour ties with it
     tips = np.concatenate([[far], tips[tips != far]])[:TIPS].astype(np.int64)
-    used = np.unique(faces)
+    used = np.flatnonzero(np.bincount(faces.ravel(), minlength=len(smooth)))
     count = min(TIPS + 1, len(used))
     top = used[np.argpartition(-radial[used], count - 1)[:count]]
     top = top[np.lexsort((top, -radial[top]))]
@@ -363,9 +366,47 @@ def cut_start(
     """
     vertices = np.asarray(vertices, dtype=np.float64)
     faces = np.asarray(faces, dtype=np.int64)
+    smooth, sources, near_ties = _smoothed_sources(vertices, faces, steps=steps, lam=lam)
+    return _start(smooth, faces, rank, sources), near_ties
+
+
+#: The last few meshes' smoothed copies and sources (:func:`_smoothed_sources`).
+_MEMO: OrderedDict[tuple, tuple[NDArray[np.float64], _Sources, tuple[int, ...]]] = OrderedDict()
+_MEMO_SIZE = 2
+_MEMO_LOCK = threading.Lock()
+
+
+def _smoothed_sources(
+    vertices: NDArray[np.float64], faces: NDArray[np.int64], *, steps: int, lam: float
+) -> tuple[NDArray[np.float64], _Sources, tuple[int, ...]]:
+    """The smoothed copy, its candidate sources and near-ties, computed once per mesh.
+
+    A blind reader asks for the start of several ranks of one mesh, and the embedder's
+    read-back asks :func:`meshwm.gim.tutte.restart_map` and then, where the start moved,
+    :func:`stable_cut` of the same mesh: a pure function of the arrays, so the last
+    :data:`_MEMO_SIZE` meshes' results are kept (by a digest of their bytes).
+    """
+    key = (
+        vertices.shape,
+        faces.shape,
+        hashlib.blake2b(np.ascontiguousarray(vertices).tobytes(), digest_size=16).digest(),
+        hashlib.blake2b(np.ascontiguousarray(faces).tobytes(), digest_size=16).digest(),
+        int(steps),
+        float(lam),
+    )
+    with _MEMO_LOCK:
+        if key in _MEMO:
+            _MEMO.move_to_end(key)
+            return _MEMO[key]
     smooth = smoothed_copy(vertices, faces, steps=steps, lam=lam)
+    smooth.flags.writeable = False
     sources = _sources(smooth, faces)
-    return _start(smooth, faces, rank, sources), _near_ties(smooth, faces, sources)
+    found = (smooth, sources, _near_ties(smooth, faces, sources))
+    with _MEMO_LOCK:
+        _MEMO[key] = found
+        while len(_MEMO) > _MEMO_SIZE:
+            _MEMO.popitem(last=False)
+    return found
 
 
 def _canonical_faces(faces: NDArray[np.int64], rank: NDArray[np.int64]) -> NDArray[np.int64]:

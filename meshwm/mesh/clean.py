@@ -198,12 +198,18 @@ def _drop_unreferenced(
 def unique_edges(faces: NDArray[np.int64]) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
     """Unique undirected edges and, per face corner-edge (m*3), the index of its edge.
 
-    Corner-edge ``3*f + k`` goes from ``faces[f, k]`` to ``faces[f, (k+1) % 3]``.
+    Corner-edge ``3*f + k`` goes from ``faces[f, k]`` to ``faces[f, (k+1) % 3]``.  The edges
+    are ``(low, high)`` pairs in lexicographic order.
     """
-    directed = np.stack([faces, np.roll(faces, -1, axis=1)], axis=2).reshape(-1, 2)
-    key = np.sort(directed, axis=1)
-    first, inverse = _unique_rows(key)
-    return key[first], inverse
+    faces = np.asarray(faces, dtype=np.int64)
+    if len(faces) == 0:
+        return np.zeros((0, 2), dtype=np.int64), np.zeros(0, dtype=np.int64)
+    a = faces.ravel()
+    b = faces[:, [1, 2, 0]].ravel()
+    low, high = np.minimum(a, b), np.maximum(a, b)
+    n = int(high.max()) + 1
+    first, inverse = _group(low * n + high, low)
+    return np.stack([low[first], high[first]], axis=1), inverse
 
 
 def edge_topology_counts(faces: NDArray[np.int64]) -> tuple[int, int, int]:
