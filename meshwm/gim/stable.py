@@ -260,6 +260,7 @@ def canonical_labelling(
         raise ValueError(f"first={first} is not a neighbour of source={source}")
     parent = np.full(n, -2, dtype=np.int64)
     parent[source] = -1
+    seen = np.empty(n, dtype=np.int64)  # scratch: first occurrence of a vertex in a level
     levels = [np.array([source], dtype=np.int64)]
     entries = np.array([entry], dtype=np.int64)
     while len(entries):
@@ -273,9 +274,11 @@ def canonical_labelling(
         target = rot.target[half]
         fresh = parent[target] == -2
         half, target, owner = half[fresh], target[fresh], owner[fresh]
-        # Already in (level rank, ring place) order: the first occurrence of each vertex.
-        _, at = np.unique(target, return_index=True)
-        at = np.sort(at)
+        # Already in (level rank, ring place) order: the first occurrence of each vertex
+        # (written in reverse, the first occurrence's index is the one that stays).
+        where = np.arange(len(target))
+        seen[target[::-1]] = where[::-1]
+        at = where[seen[target] == where]
         new = target[at]
         parent[new] = levels[-1][owner[at]]
         levels.append(new)

@@ -30,6 +30,7 @@ from __future__ import annotations
 import contextlib
 import contextvars
 import hashlib
+import threading
 from collections.abc import Iterator
 from typing import NamedTuple
 
@@ -307,7 +308,7 @@ def _corner_labels(
 
 def _rebuild_connectivity(
     vertices: NDArray[np.float64], faces: NDArray[np.int64]
-) -> tuple[NDArray[np.float64], NDArray[np.int64], int, int]:
+) -> tuple[NDArray[np.int64], NDArray[np.int64], int, int]:
     """Give each fan of faces around a vertex its own copy of the vertex.
 
     Face corners at the same vertex are joined when their faces are glued along an edge through
@@ -315,7 +316,8 @@ def _rebuild_connectivity(
     :func:`_radial_pairs` or refused.  Each connected group of corners becomes one vertex (the
     group holding a vertex's first corner keeps its index; positions are copied).
 
-    Returns the vertices, faces, the number of vertices added and of edges resolved radially.
+    Returns the source of each output vertex (``vertices[source]`` are the output's
+    positions), the faces, the number of vertices added and of edges resolved radially.
     """
     m = len(faces)
     edges, inverse = unique_edges(faces)
@@ -361,7 +363,7 @@ def _rebuild_connectivity(
     n_groups, labels = _corner_labels(faces, first, second)
     flat = faces.reshape(-1)
     if n_groups == len(vertices):
-        return vertices, faces, 0, resolved
+        return np.arange(len(vertices)), faces, 0, resolved
     group_vertex = np.zeros(n_groups, dtype=np.int64)
     group_vertex[labels] = flat
     group_first = np.full(n_groups, 3 * m, dtype=np.int64)
@@ -374,8 +376,8 @@ def _rebuild_connectivity(
     new_id[order_g[is_first]] = gv[is_first]
     extra = order_g[~is_first]
     new_id[extra] = len(vertices) + np.arange(len(extra))
-    new_vertices = np.concatenate([vertices, vertices[group_vertex[extra]]])
-    return new_vertices, new_id[labels].reshape(-1, 3), len(extra), resolved
+    source = np.concatenate([np.arange(len(vertices)), group_vertex[extra]])
+    return source, new_id[labels].reshape(-1, 3), len(extra), resolved
 
 
 def _inconsistent_edges(faces: NDArray[np.int64]) -> int:
@@ -517,6 +519,45 @@ def clean_mesh(
     return found._replace(report=dict(found.report))
 
 
+#: The last mesh's connectivity work (:func:`_structure`), by a digest of its faces.
+_STRUCTURE: dict[tuple, tuple] = {}
+_STRUCTURE_LOCK = threading.Lock()
+
+
+def _structure(
+    vertices: NDArray[np.float64], faces: NDArray[np.int64]
+) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.int64], dict]:
+    """Steps 4-6 of :func:`clean_mesh`: fans split, components labelled, faces oriented.
+
+    Returns the source vertex of each output vertex, the oriented faces, each face's
+    component and the report's counts.  Unless a non-manifold edge was resolved (by the
+    radial order of its faces, which depends on the positions), this depends on the faces
+    alone, so the last result is kept for the same faces: the embedder's read-back cleans
+    the marked mesh, whose faces are the input's.
+    """
+    digest = hashlib.blake2b(np.ascontiguousarray(faces).tobytes(), digest_size=16).digest()
+    key = (len(vertices), faces.shape, digest)
+    with _STRUCTURE_LOCK:
+        if key in _STRUCTURE:
+            return _STRUCTURE[key]
+    source, f, split, resolved = _rebuild_connectivity(vertices, faces)
+    labels = _face_components(len(source), f)
+    f, flipped = _orient(f, labels)
+    counts = {
+        "vertices_split_nonmanifold": split,
+        "edges_unpinched": resolved,
+        "faces_reoriented": flipped,
+    }
+    found = (source, f, labels, counts)
+    for a in found[:3]:
+        a.flags.writeable = False
+    if resolved == 0:
+        with _STRUCTURE_LOCK:
+            _STRUCTURE.clear()
+            _STRUCTURE[key] = found
+    return found
+
+
 def _clean_mesh(
     vertices: NDArray, faces: NDArray, *, max_faces: int = DEFAULT_MAX_FACES, min_faces: int = 4
 ) -> CleanMesh:
@@ -531,12 +572,9 @@ def _clean_mesh(
         raise MeshError("mesh has no faces of non-zero area")
     v, f, unref = _drop_unreferenced(v, f)
     report["vertices_unreferenced"] = unref
-    v, f, split, resolved = _rebuild_connectivity(v, f)
-    report["vertices_split_nonmanifold"] = split
-    report["edges_unpinched"] = resolved
-    labels = _face_components(len(v), f)
-    f, flipped = _orient(f, labels)
-    report["faces_reoriented"] = flipped
+    source, f, labels, counts = _structure(v, f)
+    v = v[source]
+    report.update(counts)
     # Largest component by area; ties by face count, then by smallest vertex position.
     e1 = v[f[:, 1]] - v[f[:, 0]]
     e2 = v[f[:, 2]] - v[f[:, 0]]
@@ -544,14 +582,16 @@ def _clean_mesh(
     n_comp = labels.max() + 1
     comp_area = np.bincount(labels, weights=area, minlength=n_comp)
     comp_size = np.bincount(labels, minlength=n_comp)
-    # Component of each vertex's lexicographically smallest position (order-free tie-break).
-    face_of_vertex = np.zeros(len(v), dtype=np.int64)
-    face_of_vertex[f.ravel()] = np.repeat(labels, 3)
-    lex_rank = np.empty(len(v), dtype=np.int64)
-    lex_rank[np.lexsort(v.T[::-1])] = np.arange(len(v))
-    comp_first = np.full(n_comp, len(v), dtype=np.int64)
-    np.minimum.at(comp_first, face_of_vertex, lex_rank)
-    best = int(np.lexsort((comp_first, -comp_size, -comp_area))[0])
+    best = 0
+    if n_comp > 1:
+        # Component of each vertex's lexicographically smallest position (order-free tie-break).
+        face_of_vertex = np.zeros(len(v), dtype=np.int64)
+        face_of_vertex[f.ravel()] = np.repeat(labels, 3)
+        lex_rank = np.empty(len(v), dtype=np.int64)
+        lex_rank[np.lexsort(v.T[::-1])] = np.arange(len(v))
+        comp_first = np.full(n_comp, len(v), dtype=np.int64)
+        np.minimum.at(comp_first, face_of_vertex, lex_rank)
+        best = int(np.lexsort((comp_first, -comp_size, -comp_area))[0])
     main = labels == best
     mv, mf, _ = _drop_unreferenced(v, f[main])
     if len(mf) < min_faces:
