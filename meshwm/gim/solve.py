@@ -129,12 +129,18 @@ class SpdSolver:
     matrix : (n, n) sparse matrix
     tol : float, optional
         The multigrid solves' relative residual.
+    maxiter : int, optional
+        At most this many conjugate-gradient iterations per solve (a cap for solves that are
+        corrections within an outer iteration).
     """
 
-    def __init__(self, matrix: sp.spmatrix, *, tol: float = TOLERANCE) -> None:
+    def __init__(
+        self, matrix: sp.spmatrix, *, tol: float = TOLERANCE, maxiter: int = _MAXITER
+    ) -> None:
         n = matrix.shape[0]
         self._n = n
         self._tol = float(tol)
+        self._maxiter = int(maxiter)
         self._factor: Any = None
         self._hierarchy: Any = None
         if n <= DIRECT_LIMIT:
@@ -156,4 +162,4 @@ class SpdSolver:
             none = np.zeros((0, rhs.shape[1]))
             # igl minimises ½ xᵀAx + xᵀB: B = -rhs gives A x = rhs.
             return np.asarray(igl.min_quad_with_fixed_solve(self._factor, -rhs, none, none))
-        return _amg_solve(self._hierarchy, rhs, guess=None, tol=self._tol, maxiter=_MAXITER)
+        return _amg_solve(self._hierarchy, rhs, guess=None, tol=self._tol, maxiter=self._maxiter)
