@@ -63,6 +63,7 @@ def solve_with_fixed(
     values: NDArray[np.float64],
     *,
     guess: NDArray[np.float64] | None = None,
+    tol: float = TOLERANCE,
 ) -> NDArray[np.float64]:
     """Minimise ``½ xᵀQx`` with ``x[fixed] = values``: ``Q_ff x_f = -Q_fk values``.
 
@@ -74,6 +75,8 @@ def solve_with_fixed(
     values : (k, c) float64 ndarray
     guess : (n, c) float64 ndarray, optional
         A start for the iterative solve (large systems only; e.g. the previous map).
+    tol : float, optional
+        The relative residual of the iterative solve (large systems only).
 
     Returns
     -------
@@ -111,9 +114,7 @@ def solve_with_fixed(
     start = None if guess is None else np.asarray(guess, dtype=np.float64)[index]
     x = np.empty((n, columns))
     x[fixed] = values
-    x[index] = _amg_solve(
-        _hierarchy(q_free[:, index]), rhs, guess=start, tol=TOLERANCE, maxiter=_MAXITER
-    )
+    x[index] = _amg_solve(_hierarchy(q_free[:, index]), rhs, guess=start, tol=tol, maxiter=_MAXITER)
     return x
 
 
