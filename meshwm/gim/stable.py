@@ -46,12 +46,16 @@ through the fan it is reached by.
 
 from __future__ import annotations
 
+import hashlib
+import threading
+from collections import OrderedDict
 from typing import NamedTuple
 
 import igl
 import numpy as np
 import scipy.sparse as sp
 from numpy.typing import NDArray
+from scipy.sparse.csgraph import connected_components
 
 from meshwm.errors import MeshError
 from meshwm.gim.cut import CutMesh, area_centroid, cut_open, path_edges
@@ -147,13 +151,17 @@ def smoothed_copy(
 
 
 class _Rotation(NamedTuple):
-    """Half-edges (a, b) sorted by a, with their successor and predecessor around a."""
+    """Half-edges (a, b) sorted by key ``a * n + b``, with their twin, and their fans: the
+    half-edges around a vertex in rotation order (successor: (a, c) after (a, b) for face abc),
+    one fan after the other, each from its first half-edge (a closed fan: its smallest key)."""
 
-    target: list[int]
-    succ: list[int]
-    pred: list[int]
-    twin: list[int]
+    target: NDArray[np.int64]
+    twin: NDArray[np.int64]
     keys: NDArray[np.int64]
+    fan: NDArray[np.int64]  # the fan of each half-edge
+    position: NDArray[np.int64]  # each half-edge's place in its fan
+    members: NDArray[np.int64]  # the half-edges fan by fan, each fan in rotation order
+    start: NDArray[np.int64]  # where each fan begins in ``members`` (one more at the end)
 
 
 def _rotation(n: int, faces: NDArray[np.int64]) -> _Rotation:
@@ -161,36 +169,50 @@ def _rotation(n: int, faces: NDArray[np.int64]) -> _Rotation:
     a = faces.ravel()
     b = faces[:, [1, 2, 0]].ravel()
     c = faces[:, [2, 0, 1]].ravel()
-    keys = np.sort(np.concatenate([a * n + b, a * n + c]))  # sorting beats np.unique's hash
-    keys = keys[np.concatenate([[True], keys[1:] != keys[:-1]])]
-    from_key = np.searchsorted(keys, a * n + b)
+    m3 = len(a)
+    # Every corner gives (a, b) and (a, c); one sort numbers the distinct half-edges.
+    both = np.concatenate([a * n + b, a * n + c])
+    order = np.argsort(both, kind="stable")
+    ranked = both[order]
+    new = np.ones(len(both), dtype=bool)
+    new[1:] = ranked[1:] != ranked[:-1]
+    keys = ranked[new]
+    index = np.empty(len(both), dtype=np.int64)
+    index[order] = np.cumsum(new) - 1
+    from_key = index[:m3]
     if np.bincount(from_key, minlength=len(keys)).max(initial=0) > 1:
         raise MeshError("the mesh is not edge-manifold and consistently oriented")
-    succ = np.full(len(keys), -1, dtype=np.int64)
-    succ[from_key] = np.searchsorted(keys, a * n + c)
-    pred = np.full(len(keys), -1, dtype=np.int64)
-    pred[succ[from_key]] = from_key
-    twin = np.searchsorted(keys, (keys % n) * n + keys // n)
-    return _Rotation(
-        (keys % n).tolist(), succ.tolist(), pred.tolist(), twin.tolist(), keys.astype(np.int64)
-    )
-
-
-def _ring(rot: _Rotation, entry: int) -> list[int]:
-    """Half-edges around the entry's vertex in rotation order from ``entry`` (its fan only)."""
-    ring = [entry]
-    h = rot.succ[entry]
-    while h != -1 and h != entry:
-        ring.append(h)
-        h = rot.succ[h]
-    if h == -1:  # a boundary fan: go on from its other end
-        back = []
-        h = rot.pred[entry]
-        while h != -1:
-            back.append(h)
-            h = rot.pred[h]
-        ring.extend(back[::-1])
-    return ring
+    h = len(keys)
+    succ = np.full(h, -1, dtype=np.int64)
+    succ[from_key] = index[m3:]
+    has_pred = np.zeros(h, dtype=bool)
+    has_pred[index[m3:]] = True
+    # The twin of (a, b) at corner k is (b, a), the (a, c) of corner k + 1, and vice versa.
+    corner = np.arange(m3)
+    next_corner = corner - corner % 3 + (corner % 3 + 1) % 3
+    twin = np.empty(h, dtype=np.int64)
+    twin[from_key] = index[m3 + next_corner]
+    twin[index[m3 + next_corner]] = from_key
+    # Fans: components of the successor links; a fan starts at its half-edge without a
+    # predecessor (open) or at its smallest key (closed).
+    links = sp.coo_matrix((np.ones(len(from_key)), (from_key, succ[from_key])), shape=(h, h))
+    n_fans, fan = connected_components(links, directed=False)
+    first = np.full(n_fans, h, dtype=np.int64)
+    np.minimum.at(first, fan, np.arange(h))
+    heads = np.flatnonzero(~has_pred)
+    first[fan[heads]] = heads
+    position = np.full(h, -1, dtype=np.int64)
+    walk = first
+    step = 0
+    while len(walk):  # all fans at once, one step along each per round
+        position[walk] = step
+        walk = succ[walk]
+        walk = walk[(walk >= 0) & (position[np.maximum(walk, 0)] < 0)]
+        step += 1
+    size = np.bincount(fan, minlength=n_fans)
+    start = np.concatenate([[0], np.cumsum(size)])
+    members = np.lexsort((position, fan))
+    return _Rotation(keys % n, twin, keys.astype(np.int64), fan, position, members, start)
 
 
 def canonical_labelling(
@@ -218,6 +240,16 @@ def canonical_labelling(
     ------
     MeshError
         If the mesh is not edge-manifold and oriented, or not every vertex is reached.
+
+    Notes
+    -----
+    The traversal visits the vertices of a level in label order and each one's fan in rotation
+    order from the half-edge it was entered by (of a boundary fan: to its end, then from its
+    start).  Both are a rotation of the fan's order by the entry's place in it, so a whole
+    level is done at once: every half-edge of the level's fans to an unlabelled vertex, sorted
+    by (its vertex's label, its place after the entry); each new vertex is labelled at its first
+    occurrence, entered by the twin of that half-edge.  The labels are those of the one-vertex-
+    at-a-time traversal, bit for bit.
     """
     faces = np.asarray(faces, dtype=np.int64)
     n = int(n_vertices)
@@ -226,23 +258,35 @@ def canonical_labelling(
     entry = int(np.searchsorted(rot.keys, key))
     if entry >= len(rot.keys) or rot.keys[entry] != key:
         raise ValueError(f"first={first} is not a neighbour of source={source}")
-    parent = [-2] * n
+    parent = np.full(n, -2, dtype=np.int64)
     parent[source] = -1
-    order = [source]
-    entries = [entry]
-    head = 0
-    while head < len(order):
-        v = order[head]
-        for h in _ring(rot, entries[head]):
-            w = rot.target[h]
-            if parent[w] == -2:
-                parent[w] = v
-                order.append(w)
-                entries.append(rot.twin[h])  # w is entered from v: the half-edge (w, v)
-        head += 1
+    seen = np.empty(n, dtype=np.int64)  # scratch: first occurrence of a vertex in a level
+    levels = [np.array([source], dtype=np.int64)]
+    entries = np.array([entry], dtype=np.int64)
+    while len(entries):
+        fans = rot.fan[entries]
+        size = rot.start[fans + 1] - rot.start[fans]
+        owner = np.repeat(np.arange(len(entries)), size)  # the level's rank of each half-edge
+        offset = np.arange(len(owner)) - np.repeat(np.cumsum(size) - size, size)
+        # The ring of each entry: its fan rotated to start at the entry.
+        place = (rot.position[entries][owner] + offset) % size[owner]
+        half = rot.members[rot.start[fans][owner] + place]
+        target = rot.target[half]
+        fresh = parent[target] == -2
+        half, target, owner = half[fresh], target[fresh], owner[fresh]
+        # Already in (level rank, ring place) order: the first occurrence of each vertex
+        # (written in reverse, the first occurrence's index is the one that stays).
+        where = np.arange(len(target))
+        seen[target[::-1]] = where[::-1]
+        at = where[seen[target] == where]
+        new = target[at]
+        parent[new] = levels[-1][owner[at]]
+        levels.append(new)
+        entries = rot.twin[half[at]]
+    order = np.concatenate(levels)
     if len(order) != n:
         raise MeshError(f"the mesh is not connected: {n - len(order)} vertices not reached")
-    return np.asarray(order, dtype=np.int64), np.asarray(parent, dtype=np.int64)
+    return order, parent
 
 
 class _Sources(NamedTuple):
@@ -263,7 +307,7 @@ def _sources(smooth: NDArray[np.float64], faces: NDArray[np.int64]) -> _Sources:
     tips = tips[np.argsort(-radial[tips], kind="stable")][:TIPS]
     far = int(np.argmax(radial))  # the farthest vertex, even if a neighbour ties with it
     tips = np.concatenate([[far], tips[tips != far]])[:TIPS].astype(np.int64)
-    used = np.unique(faces)
+    used = np.flatnonzero(np.bincount(faces.ravel(), minlength=len(smooth)))
     count = min(TIPS + 1, len(used))
     top = used[np.argpartition(-radial[used], count - 1)[:count]]
     top = top[np.lexsort((top, -radial[top]))]
@@ -325,9 +369,47 @@ def cut_start(
     """
     vertices = np.asarray(vertices, dtype=np.float64)
     faces = np.asarray(faces, dtype=np.int64)
+    smooth, sources, near_ties = _smoothed_sources(vertices, faces, steps=steps, lam=lam)
+    return _start(smooth, faces, rank, sources), near_ties
+
+
+#: The last few meshes' smoothed copies and sources (:func:`_smoothed_sources`).
+_MEMO: OrderedDict[tuple, tuple[NDArray[np.float64], _Sources, tuple[int, ...]]] = OrderedDict()
+_MEMO_SIZE = 2
+_MEMO_LOCK = threading.Lock()
+
+
+def _smoothed_sources(
+    vertices: NDArray[np.float64], faces: NDArray[np.int64], *, steps: int, lam: float
+) -> tuple[NDArray[np.float64], _Sources, tuple[int, ...]]:
+    """The smoothed copy, its candidate sources and near-ties, computed once per mesh.
+
+    A blind reader asks for the start of several ranks of one mesh, and the embedder's
+    read-back asks :func:`meshwm.gim.tutte.restart_map` and then, where the start moved,
+    :func:`stable_cut` of the same mesh: a pure function of the arrays, so the last
+    :data:`_MEMO_SIZE` meshes' results are kept (by a digest of their bytes).
+    """
+    key = (
+        vertices.shape,
+        faces.shape,
+        hashlib.blake2b(np.ascontiguousarray(vertices).tobytes(), digest_size=16).digest(),
+        hashlib.blake2b(np.ascontiguousarray(faces).tobytes(), digest_size=16).digest(),
+        int(steps),
+        float(lam),
+    )
+    with _MEMO_LOCK:
+        if key in _MEMO:
+            _MEMO.move_to_end(key)
+            return _MEMO[key]
     smooth = smoothed_copy(vertices, faces, steps=steps, lam=lam)
+    smooth.flags.writeable = False
     sources = _sources(smooth, faces)
-    return _start(smooth, faces, rank, sources), _near_ties(smooth, faces, sources)
+    found = (smooth, sources, _near_ties(smooth, faces, sources))
+    with _MEMO_LOCK:
+        _MEMO[key] = found
+        while len(_MEMO) > _MEMO_SIZE:
+            _MEMO.popitem(last=False)
+    return found
 
 
 def _canonical_faces(faces: NDArray[np.int64], rank: NDArray[np.int64]) -> NDArray[np.int64]:

@@ -17,12 +17,12 @@ from __future__ import annotations
 
 from typing import NamedTuple
 
-import igl
 import numpy as np
 import scipy.sparse as sp
 from numpy.typing import NDArray
 
 from meshwm.errors import MeshError
+from meshwm.gim.solve import solve_with_fixed
 from meshwm.gim.stable import StableCut, cut_start, stable_cut
 from meshwm.mesh.clean import unique_edges
 
@@ -125,7 +125,7 @@ def tutte_map(faces: NDArray[np.int64], rank: NDArray[np.int64]) -> NDArray[np.f
     (k, 2) float64 ndarray
         UVs in [0, 1]²: the boundary on the square's border counter-clockwise, by vertex count
         with a corner every quarter of the loop; every interior vertex the mean of its
-        neighbours (one sparse Cholesky solve, ``igl.min_quad_with_fixed``).
+        neighbours (one sparse solve, :func:`meshwm.gim.solve.solve_with_fixed`).
 
     Raises
     ------
@@ -151,13 +151,9 @@ def tutte_map(faces: NDArray[np.int64], rank: NDArray[np.int64]) -> NDArray[np.f
         (np.ones(2 * len(edges)), (edges.T.ravel(), edges[:, ::-1].T.ravel())), shape=(k, k)
     ).tocsr()
     laplacian = (sp.diags(np.asarray(adjacency.sum(axis=1)).ravel()) - adjacency).tocsc()
-    # libigl's sparse Cholesky: igea's 134k vertices in 0.9 s against 2.6 s for scipy's splu.
-    empty = sp.csc_matrix((0, k))
-    return np.asarray(
-        igl.min_quad_with_fixed(
-            laplacian, np.zeros((k, 2)), loop, uv[loop], empty, np.zeros((0, 2)), True
-        )
-    )
+    # libigl's sparse Cholesky up to a few hundred thousand vertices (igea's 134k in 0.9 s
+    # against 2.6 s for scipy's splu), multigrid above (:mod:`meshwm.gim.solve`).
+    return solve_with_fixed(laplacian, loop, uv[loop])
 
 
 def stable_parameterize(

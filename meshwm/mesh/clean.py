@@ -33,14 +33,19 @@ import hashlib
 from collections.abc import Iterator
 from typing import NamedTuple
 
-import igl
 import numpy as np
-import scipy.sparse as sp
 from numpy.typing import NDArray
-from scipy.sparse.csgraph import connected_components
 
 from meshwm._validate import DEFAULT_MAX_FACES, check_mesh
 from meshwm.errors import MeshError
+from meshwm.mesh.edges import (
+    _hashed_groups,
+    edge_topology_counts,
+    euler_characteristic,
+    uniform_smoothing_operator,
+    unique_edges,
+)
+from meshwm.mesh.manifold import face_components, structure
 
 _SHARED: contextvars.ContextVar[dict | None] = contextvars.ContextVar("cleaning", default=None)
 
@@ -80,30 +85,13 @@ class CleanMesh(NamedTuple):
     report: dict
 
 
-def _unique_rows(rows: NDArray) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
-    """Index of each distinct row's first occurrence (sorted by row) and row -> distinct index.
-
-    ``np.unique(axis=0)`` views rows as opaque bytes and is several times slower than a
-    lexicographic sort of the columns, which is what this does.
-    """
-    order = np.lexsort(rows.T[::-1])
-    s = rows[order]
-    new = np.ones(len(rows), dtype=bool)
-    new[1:] = np.any(s[1:] != s[:-1], axis=1)
-    group = np.cumsum(new) - 1
-    inverse = np.empty(len(rows), dtype=np.int64)
-    inverse[order] = group
-    first = order[new]  # lexsort is stable, so this is the first occurrence of each row
-    return first, inverse
-
-
 def _merge_exact_duplicates(
     vertices: NDArray[np.float64], faces: NDArray[np.int64]
 ) -> tuple[NDArray[np.float64], NDArray[np.int64], int]:
     """Merge vertices with bit-identical positions; keep the first occurrence's order."""
     # -0.0 and 0.0 are the same position: normalise before comparing bytes.
     v = vertices + 0.0
-    first, inverse = _unique_rows(v)
+    first, inverse = _hashed_groups(v)
     if len(first) == len(v):
         return vertices, faces, 0
     # Renumber unique rows in order of first appearance so the result keeps the input order.
@@ -126,7 +114,7 @@ def _drop_bad_faces(
     keep = ~(repeated | zero_area)
     f = faces[keep]
     # Exact duplicate faces (same three vertices, either winding): keep the first.
-    first, _ = _unique_rows(np.sort(f, axis=1))
+    first, _ = _hashed_groups(np.sort(f, axis=1).astype(np.int64))
     dup = len(f) - len(first)
     f = f[np.sort(first)]
     return f, {
@@ -147,229 +135,6 @@ def _drop_unreferenced(
     return vertices[used], remap[faces], int((~used).sum())
 
 
-def unique_edges(faces: NDArray[np.int64]) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
-    """Unique undirected edges and, per face corner-edge (m*3), the index of its edge.
-
-    Corner-edge ``3*f + k`` goes from ``faces[f, k]`` to ``faces[f, (k+1) % 3]``.
-    """
-    directed = np.stack([faces, np.roll(faces, -1, axis=1)], axis=2).reshape(-1, 2)
-    key = np.sort(directed, axis=1)
-    first, inverse = _unique_rows(key)
-    return key[first], inverse
-
-
-def edge_topology_counts(faces: NDArray[np.int64]) -> tuple[int, int, int]:
-    """Number of unique edges, boundary edges (one face) and non-manifold edges (> 2 faces)."""
-    edges, inverse = unique_edges(faces)
-    count = np.bincount(inverse, minlength=len(edges))
-    return len(edges), int((count == 1).sum()), int((count > 2).sum())
-
-
-def euler_characteristic(n_vertices: int, faces: NDArray[np.int64]) -> int:
-    """Euler characteristic V - E + F of a mesh whose vertices are all referenced."""
-    n_edges = edge_topology_counts(faces)[0]
-    return int(n_vertices - n_edges + len(faces))
-
-
-def _radial_pairs(
-    vertices: NDArray[np.float64],
-    faces: NDArray[np.int64],
-    edge: NDArray[np.int64],
-    corner_edges: NDArray[np.int64],
-) -> list[list[tuple[int, int]]] | None:
-    """Candidate pairings of the faces around an edge of more than two faces, or None.
-
-    The faces are sorted by angle around the edge and paired without crossing, each face with
-    one running the edge the other way.  There are at most two such matchings (pairing across
-    the wedges inside the surface, or across those outside); both are returned, and the caller
-    keeps the one that pairs faces of the same sheet.  This is how two closed sheets that touch
-    along an edge (a pinch) separate again.  Anything else (an odd number of faces, a fan) has
-    no manifold reading: None.
-    """
-    a, b = int(edge[0]), int(edge[1])
-    e = vertices[b] - vertices[a]
-    norm = np.linalg.norm(e)
-    if len(corner_edges) % 2 or norm == 0:
-        return None
-    e = e / norm
-    helper = np.eye(3)[int(np.argmin(np.abs(e)))]
-    u = np.cross(e, helper)
-    u /= np.linalg.norm(u)
-    w = np.cross(e, u)
-    fidx = corner_edges // 3
-    k = corner_edges % 3
-    forward = faces[fidx, k] == a  # runs a -> b
-    third = faces[fidx, (k + 2) % 3]
-    r = vertices[third] - vertices[a]
-    theta = np.arctan2(r @ w, r @ u)
-    order = np.lexsort((fidx, theta))
-    d = forward[order]
-    if d.sum() * 2 != len(d):
-        return None
-    n = len(order)
-    # A non-crossing matching of opposite runs around the circle is a bracket matching; there
-    # are at most two families (brackets opening on backward or on forward faces).
-    candidates = []
-    for opener in (False, True):
-        for offset in range(n):
-            stack: list[int] = []
-            pairs = []
-            for step in range(n):
-                i = (offset + step) % n
-                if d[i] == opener:
-                    stack.append(i)
-                elif stack:
-                    pairs.append(
-                        (int(corner_edges[order[stack.pop()]]), int(corner_edges[order[i]]))
-                    )
-                else:
-                    break
-            if len(pairs) * 2 == n:
-                candidates.append(pairs)
-                break
-    return candidates or None
-
-
-def _corner_labels(
-    faces: NDArray[np.int64], first: NDArray[np.int64], second: NDArray[np.int64]
-) -> tuple[int, NDArray[np.int64]]:
-    """Groups of face corners joined through the glued corner-edge pairs (first[k], second[k])."""
-    m = len(faces)
-    corner_a = np.arange(3 * m)
-    corner_b = (np.arange(m)[:, None] * 3 + (np.arange(3)[None, :] + 1) % 3).reshape(-1)
-    ca1, cb1, ca2, cb2 = corner_a[first], corner_b[first], corner_a[second], corner_b[second]
-    flat = faces.reshape(-1)
-    rows, cols = [], []
-    for c1 in (ca1, cb1):
-        for c2 in (ca2, cb2):
-            hit = flat[c1] == flat[c2]
-            rows.append(c1[hit])
-            cols.append(c2[hit])
-    rows_a = np.concatenate(rows)
-    cols_a = np.concatenate(cols)
-    graph = sp.coo_matrix((np.ones(len(rows_a)), (rows_a, cols_a)), shape=(3 * m, 3 * m)).tocsr()
-    return connected_components(graph, directed=False)
-
-
-def _rebuild_connectivity(
-    vertices: NDArray[np.float64], faces: NDArray[np.int64]
-) -> tuple[NDArray[np.float64], NDArray[np.int64], int, int]:
-    """Give each fan of faces around a vertex its own copy of the vertex.
-
-    Face corners at the same vertex are joined when their faces are glued along an edge through
-    that vertex.  An edge of two faces glues them; an edge of more faces is resolved by
-    :func:`_radial_pairs` or refused.  Each connected group of corners becomes one vertex (the
-    group holding a vertex's first corner keeps its index; positions are copied).
-
-    Returns the vertices, faces, the number of vertices added and of edges resolved radially.
-    """
-    m = len(faces)
-    edges, inverse = unique_edges(faces)
-    count = np.bincount(inverse, minlength=len(edges))
-    order = np.argsort(inverse, kind="stable")
-    sorted_edge = inverse[order]
-    two = count[sorted_edge[:-1]] == 2
-    same = (sorted_edge[1:] == sorted_edge[:-1]) & two
-    first, second = order[:-1][same], order[1:][same]
-    resolved = 0
-    heavy = np.flatnonzero(count > 2)
-    if len(heavy):
-        # Sheets glued along ordinary edges only: a pair of faces of the same sheet shares a
-        # corner group at the edge's first vertex.
-        _, pre = _corner_labels(faces, first, second)
-        flat = faces.reshape(-1)
-        starts = np.searchsorted(sorted_edge, heavy)
-        extra1, extra2 = [], []
-        for edge_id, s in zip(heavy.tolist(), starts.tolist(), strict=True):
-            a = int(edges[edge_id][0])
-            options = _radial_pairs(vertices, faces, edges[edge_id], order[s : s + count[edge_id]])
-            if options is None:
-                raise MeshError(
-                    f"mesh has {len(heavy)} non-manifold edges (shared by more than two faces, "
-                    f"first between vertices {a} and {edges[edge_id][1]}); "
-                    "repair it first, e.g. MeshLab 'Repair non Manifold Edges'"
-                )
-
-            def corner_at_a(corner_edge: int, a: int = a) -> int:
-                base = 3 * (corner_edge // 3)
-                return base + int(np.flatnonzero(flat[base : base + 3] == a)[0])
-
-            score = [
-                sum(pre[corner_at_a(p)] == pre[corner_at_a(q)] for p, q in pairs)
-                for pairs in options
-            ]
-            for p, q in options[int(np.argmax(score))]:
-                extra1.append(p)
-                extra2.append(q)
-            resolved += 1
-        first = np.concatenate([first, np.asarray(extra1, dtype=np.int64)])
-        second = np.concatenate([second, np.asarray(extra2, dtype=np.int64)])
-    n_groups, labels = _corner_labels(faces, first, second)
-    flat = faces.reshape(-1)
-    if n_groups == len(vertices):
-        return vertices, faces, 0, resolved
-    group_vertex = np.zeros(n_groups, dtype=np.int64)
-    group_vertex[labels] = flat
-    group_first = np.full(n_groups, 3 * m, dtype=np.int64)
-    np.minimum.at(group_first, labels, np.arange(3 * m))
-    order_g = np.lexsort((group_first, group_vertex))
-    gv = group_vertex[order_g]
-    is_first = np.ones(len(order_g), dtype=bool)
-    is_first[1:] = gv[1:] != gv[:-1]
-    new_id = np.empty(n_groups, dtype=np.int64)
-    new_id[order_g[is_first]] = gv[is_first]
-    extra = order_g[~is_first]
-    new_id[extra] = len(vertices) + np.arange(len(extra))
-    new_vertices = np.concatenate([vertices, vertices[group_vertex[extra]]])
-    return new_vertices, new_id[labels].reshape(-1, 3), len(extra), resolved
-
-
-def _inconsistent_edges(faces: NDArray[np.int64]) -> int:
-    """Number of interior edges that both of their faces traverse in the same direction."""
-    directed = np.stack([faces, np.roll(faces, -1, axis=1)], axis=2).reshape(-1, 2)
-    _, inverse = unique_edges(faces)
-    forward = directed[:, 0] < directed[:, 1]
-    order = np.argsort(inverse, kind="stable")
-    sorted_edge = inverse[order]
-    same = sorted_edge[1:] == sorted_edge[:-1]
-    return int(np.sum(forward[order[:-1][same]] == forward[order[1:][same]]))
-
-
-def _orient(faces: NDArray[np.int64], labels: NDArray[np.int64]) -> tuple[NDArray[np.int64], int]:
-    """Consistently orient each component (breadth-first over faces, ``igl.bfs_orient``).
-
-    Within a component, the winding most input faces already have is kept.  Raises
-    :class:`MeshError` for a non-orientable component (a Möbius strip).
-    """
-    if _inconsistent_edges(faces) == 0:
-        return faces, 0
-    oriented, _ = igl.bfs_orient(faces)
-    if _inconsistent_edges(oriented) != 0:
-        raise MeshError("mesh is not orientable (a Möbius-like strip); cannot map it")
-    # A face was flipped if its first vertex is no longer followed by the same second vertex.
-    pos = np.argmax(oriented == faces[:, :1], axis=1)
-    flipped = oriented[np.arange(len(faces)), (pos + 1) % 3] != faces[:, 1]
-    n_comp = labels.max() + 1
-    invert = np.bincount(labels, weights=flipped, minlength=n_comp) * 2 > np.bincount(
-        labels, minlength=n_comp
-    )
-    oriented = np.where(invert[labels][:, None], oriented[:, ::-1], oriented)
-    flipped = flipped ^ invert[labels]
-    return oriented, int(flipped.sum())
-
-
-def _face_components(n_vertices: int, faces: NDArray[np.int64]) -> NDArray[np.int64]:
-    """Component label per face; faces are joined through shared vertices."""
-    m = len(faces)
-    rows = np.repeat(np.arange(m), 3)
-    graph = sp.coo_matrix(
-        (np.ones(3 * m), (rows, faces.reshape(-1))), shape=(m, n_vertices)
-    ).tocsr()
-    adjacency = sp.bmat([[None, graph], [graph.T, None]]).tocsr()
-    _, labels = connected_components(adjacency, directed=False)
-    return labels[:m]
-
-
 def largest_component(vertices: NDArray, faces: NDArray) -> tuple[NDArray, NDArray]:
     """The connected component with the most faces, as it is: nothing merged, moved or dropped.
 
@@ -385,7 +150,7 @@ def largest_component(vertices: NDArray, faces: NDArray) -> tuple[NDArray, NDArr
     [[0, 1, 2], [0, 2, 1]]
     """
     v, f = check_mesh(vertices, faces)
-    labels = _face_components(len(v), f)
+    labels = face_components(len(v), f)
     counts = np.bincount(labels)
     main = f[labels == int(np.argmax(counts))]
     mv, mf, _ = _drop_unreferenced(v, main)
@@ -477,12 +242,9 @@ def _clean_mesh(
         raise MeshError("mesh has no faces of non-zero area")
     v, f, unref = _drop_unreferenced(v, f)
     report["vertices_unreferenced"] = unref
-    v, f, split, resolved = _rebuild_connectivity(v, f)
-    report["vertices_split_nonmanifold"] = split
-    report["edges_unpinched"] = resolved
-    labels = _face_components(len(v), f)
-    f, flipped = _orient(f, labels)
-    report["faces_reoriented"] = flipped
+    source, f, labels, counts = structure(v, f)
+    v = v[source]
+    report.update(counts)
     # Largest component by area; ties by face count, then by smallest vertex position.
     e1 = v[f[:, 1]] - v[f[:, 0]]
     e2 = v[f[:, 2]] - v[f[:, 0]]
@@ -490,14 +252,16 @@ def _clean_mesh(
     n_comp = labels.max() + 1
     comp_area = np.bincount(labels, weights=area, minlength=n_comp)
     comp_size = np.bincount(labels, minlength=n_comp)
-    # Component of each vertex's lexicographically smallest position (order-free tie-break).
-    face_of_vertex = np.zeros(len(v), dtype=np.int64)
-    face_of_vertex[f.ravel()] = np.repeat(labels, 3)
-    lex_rank = np.empty(len(v), dtype=np.int64)
-    lex_rank[np.lexsort(v.T[::-1])] = np.arange(len(v))
-    comp_first = np.full(n_comp, len(v), dtype=np.int64)
-    np.minimum.at(comp_first, face_of_vertex, lex_rank)
-    best = int(np.lexsort((comp_first, -comp_size, -comp_area))[0])
+    best = 0
+    if n_comp > 1:
+        # Component of each vertex's lexicographically smallest position (order-free tie-break).
+        face_of_vertex = np.zeros(len(v), dtype=np.int64)
+        face_of_vertex[f.ravel()] = np.repeat(labels, 3)
+        lex_rank = np.empty(len(v), dtype=np.int64)
+        lex_rank[np.lexsort(v.T[::-1])] = np.arange(len(v))
+        comp_first = np.full(n_comp, len(v), dtype=np.int64)
+        np.minimum.at(comp_first, face_of_vertex, lex_rank)
+        best = int(np.lexsort((comp_first, -comp_size, -comp_area))[0])
     main = labels == best
     mv, mf, _ = _drop_unreferenced(v, f[main])
     if len(mf) < min_faces:
@@ -511,34 +275,3 @@ def _clean_mesh(
     report["components"] = int(n_comp)
     report["components_passed_through"] = int(n_comp - 1)
     return CleanMesh(mv, mf, ov, of, report)
-
-
-def uniform_smoothing_operator(
-    n_vertices: int, faces: NDArray[np.int64]
-) -> tuple[sp.csr_matrix, NDArray[np.bool_]]:
-    """Row-stochastic neighbour-mean matrix M and the mask of vertices that have neighbours.
-
-    One step of uniform Laplacian smoothing is ``v += lam * (M @ v - v)`` on those vertices
-    (:func:`meshwm.attacks.smoothing.laplacian`); the robust decoder undoes it
-    (:mod:`meshwm.profiles.robust`).
-
-    An interior vertex averages all its edge neighbours.  A boundary vertex (one on an edge of
-    a single face) averages only its neighbours along the boundary, so a border is smoothed as
-    a polyline of its own and does not shrink into the surface (MeshLab's "1D boundary
-    smoothing", the default of its Laplacian filter).
-    """
-    edges, inverse = unique_edges(faces)
-    edges_used = edges[:, 0] != edges[:, 1]
-    border = np.bincount(inverse, minlength=len(edges)) == 1
-    edges, border = edges[edges_used], border[edges_used]
-    on_border = np.zeros(n_vertices, dtype=bool)
-    on_border[edges[border].ravel()] = True
-    rows = np.concatenate([edges[:, 0], edges[:, 1]])
-    cols = np.concatenate([edges[:, 1], edges[:, 0]])
-    keep = ~on_border[rows] | np.concatenate([border, border])
-    w = sp.csr_matrix(
-        (np.ones(int(keep.sum())), (rows[keep], cols[keep])), shape=(n_vertices, n_vertices)
-    )
-    degree = np.asarray(w.sum(axis=1)).ravel()
-    inv = np.divide(1.0, degree, out=np.zeros(n_vertices), where=degree > 0)
-    return (sp.diags(inv) @ w).tocsr(), degree > 0

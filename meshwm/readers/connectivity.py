@@ -15,7 +15,7 @@ from numpy.typing import NDArray
 
 from meshwm._validate import DEFAULT_MAX_FACES, check_mesh
 from meshwm.errors import GridError, MeshError
-from meshwm.gim.recover import RecoveredGrid, drop_irregular, recover_grid
+from meshwm.gim.recover import RecoveredGrid, drop_irregular, recover_grid, rules_out_grid
 from meshwm.mesh.clean import clean_mesh, uniform_smoothing_operator
 from meshwm.readers.base import SampledImage
 
@@ -66,6 +66,11 @@ def read_grid(
         No meshwm grid in the connectivity.
     """
     v, f = check_mesh(vertices, faces, max_faces=max_faces)
+    if rules_out_grid(len(v), f):
+        # Most vertices on six triangles in every component: not a grid of ours, and merging
+        # exact duplicates or dropping the faces around irregular vertices cannot make it one
+        # (a grid's samples are on 3-5 or 7-9 triangles; :mod:`meshwm.gim.recover.rule_out`).
+        raise GridError("no meshwm grid: most vertices lie on six triangles")
     try:
         # Every component: a cropped grid can fall apart into pieces, each read on its own.
         return recover_grid(v, f), v, f

@@ -75,6 +75,69 @@ def test_labelling_follows_a_permutation():
     np.testing.assert_array_equal(perm[order2], order)
 
 
+def _labelling_one_by_one(n, faces, source, first):
+    """The traversal as first written (one vertex at a time, in Python): the reference the
+    level-by-level :func:`canonical_labelling` must equal bit for bit."""
+    a, b, c = faces.ravel(), faces[:, [1, 2, 0]].ravel(), faces[:, [2, 0, 1]].ravel()
+    keys = np.unique(np.concatenate([a * n + b, a * n + c]))
+    from_key = np.searchsorted(keys, a * n + b)
+    succ = np.full(len(keys), -1)
+    succ[from_key] = np.searchsorted(keys, a * n + c)
+    pred = np.full(len(keys), -1)
+    pred[succ[from_key]] = from_key
+    twin = np.searchsorted(keys, (keys % n) * n + keys // n)
+    target, succ, pred, twin = (keys % n).tolist(), succ.tolist(), pred.tolist(), twin.tolist()
+
+    def ring(entry):
+        out, h = [entry], succ[entry]
+        while h not in (-1, entry):
+            out.append(h)
+            h = succ[h]
+        if h == -1:
+            back, h = [], pred[entry]
+            while h != -1:
+                back.append(h)
+                h = pred[h]
+            out.extend(back[::-1])
+        return out
+
+    parent = [-2] * n
+    parent[source] = -1
+    order, entries, head = [source], [int(np.searchsorted(keys, source * n + first))], 0
+    while head < len(order):
+        for h in ring(entries[head]):
+            if parent[target[h]] == -2:
+                parent[target[h]] = order[head]
+                order.append(target[h])
+                entries.append(twin[h])
+        head += 1
+    return np.asarray(order), np.asarray(parent)
+
+
+@pytest.mark.parametrize("name", MESHES)
+def test_labelling_equals_the_one_vertex_at_a_time_traversal(request, name):
+    from meshwm.gim.holes import boundary_loops, fill_holes
+    from meshwm.mesh.clean import clean_mesh
+
+    v, f = request.getfixturevalue(name)
+    clean = clean_mesh(v, f)
+    filled = fill_holes(clean.vertices, clean.faces, boundary_loops(clean.faces))
+    faces = filled.faces
+    n = len(clean.vertices) + len(filled.centres)
+    rng = np.random.default_rng(5)
+    for _ in range(3):
+        perm = rng.permutation(n)  # a random relabelling and face order too
+        inv = np.argsort(perm)
+        relabelled = inv[faces][rng.permutation(len(faces))]
+        source = int(rng.integers(n))
+        ring = relabelled[np.any(relabelled == source, axis=1)].ravel()
+        first = int(rng.choice(ring[ring != source]))
+        got = canonical_labelling(n, relabelled, source=source, first=first)
+        want = _labelling_one_by_one(n, relabelled, source, first)
+        np.testing.assert_array_equal(got[0], want[0])
+        np.testing.assert_array_equal(got[1], want[1])
+
+
 def test_labelling_rejects_bad_input():
     with pytest.raises(ValueError, match="first"):
         canonical_labelling(5, np.array([[0, 1, 2], [0, 2, 3]]), source=1, first=3)

@@ -88,6 +88,8 @@ a position, so any pose, scale or vertex order reads the same.
 - :mod:`~meshwm.gim.recover.sizes`: the candidate sizes (step 1);
 - :mod:`~meshwm.gim.recover.fast`: the fast path;
 - :mod:`~meshwm.gim.recover.repair`: :func:`drop_irregular`, for welded meshes;
+- :mod:`~meshwm.gim.recover.rule_out`: :func:`rules_out_grid`, the cheap test that a mesh
+  holds no grid (most vertices on six triangles), asked before the search;
 - :mod:`~meshwm.gim.recover.result` and :mod:`~meshwm.gim.recover.read`:
   :class:`RecoveredGrid` and :func:`recover_grid`, re-exported here.
 """
@@ -96,5 +98,6 @@ from meshwm.errors import GridError
 from meshwm.gim.recover.read import recover_grid
 from meshwm.gim.recover.repair import drop_irregular
 from meshwm.gim.recover.result import RecoveredGrid
+from meshwm.gim.recover.rule_out import rules_out_grid
 
-__all__ = ["GridError", "RecoveredGrid", "drop_irregular", "recover_grid"]
+__all__ = ["GridError", "RecoveredGrid", "drop_irregular", "recover_grid", "rules_out_grid"]

@@ -16,6 +16,7 @@ from meshwm.gim.recover.components import _read_components
 from meshwm.gim.recover.fast import _read_in_order
 from meshwm.gim.recover.matching import _TRANSFORMS, _code
 from meshwm.gim.recover.result import RecoveredGrid
+from meshwm.gim.recover.rule_out import rules_out_grid
 from meshwm.gim.recover.sizes import _SEARCH_CAP, _candidate_sizes, _in_order_sizes
 from meshwm.gim.recover.table import _grid_table
 from meshwm.gim.recover.verify import _fill_fold_tips
@@ -91,6 +92,12 @@ def recover_grid(vertices: NDArray, faces: NDArray, *, size: int | None = None) 
         fast = _read_in_order(v, f, n_try, size)
         if fast is not None:
             return fast
+    if rules_out_grid(len(v), f):
+        raise GridError(
+            "no geometry-image grid in the connectivity: in every component most vertices lie "
+            "on six triangles, which a meshwm grid's samples never do (the mesh was not written "
+            "by meshwm, or was remeshed)"
+        )
     return _read_order_free(v, f, size)
 
 

@@ -1,0 +1,146 @@
+"""Edges and rows of a mesh: distinct rows by one sort, unique edges, the uniform smoothing
+operator.
+
+Helpers of :mod:`meshwm.mesh.clean` (which re-exports the public ones) and of the maps: grouping
+equal rows sorts one integer key per row (packed where the range allows, else a verified 64-bit
+hash) rather than ``np.lexsort`` over the columns or ``np.unique(axis=0)`` over opaque bytes.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+from numpy.typing import NDArray
+
+__all__ = [
+    "edge_topology_counts",
+    "euler_characteristic",
+    "uniform_smoothing_operator",
+    "unique_edges",
+]
+
+
+def _group(key: NDArray, rows: NDArray) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """``(first, inverse)`` of the rows grouped by a stable sort of one integer ``key`` per row
+    that equal rows share (and, where it is a packed key, only they)."""
+    order = np.argsort(key, kind="stable")
+    s = key[order]
+    new = np.ones(len(rows), dtype=bool)
+    new[1:] = s[1:] != s[:-1]
+    group = np.cumsum(new) - 1
+    inverse = np.empty(len(rows), dtype=np.int64)
+    inverse[order] = group
+    first = order[new]  # the sort is stable, so this is the first occurrence of each row
+    return first, inverse
+
+
+def _unique_rows(rows: NDArray) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """Index of each distinct row's first occurrence (sorted by row) and row -> distinct index.
+
+    Integer rows are packed into one int64 key per row where the range allows (one stable
+    sort instead of ``np.lexsort``'s one per column; ``np.unique(axis=0)`` views rows as opaque
+    bytes and is slower still); otherwise, and for other dtypes, a lexicographic sort of the
+    columns.
+    """
+    rows = np.asarray(rows)
+    if len(rows) and np.issubdtype(rows.dtype, np.integer):
+        low = int(rows.min())
+        base = int(rows.max()) - low + 1
+        if base ** rows.shape[1] < 2**62:
+            key = np.zeros(len(rows), dtype=np.int64)
+            for k in range(rows.shape[1]):
+                key = key * base + (rows[:, k].astype(np.int64) - low)
+            return _group(key, rows)
+    order = np.lexsort(rows.T[::-1])
+    s = rows[order]
+    new = np.ones(len(rows), dtype=bool)
+    new[1:] = np.any(s[1:] != s[:-1], axis=1)
+    group = np.cumsum(new) - 1
+    inverse = np.empty(len(rows), dtype=np.int64)
+    inverse[order] = group
+    first = order[new]  # lexsort is stable, so this is the first occurrence of each row
+    return first, inverse
+
+
+def _hashed_groups(v: NDArray) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """``(first, inverse)`` of bit-identical rows of a float64 or int64 array (-0.0 normalised
+    by the caller), the groups in an order that depends on the rows only (not sorted by row).
+
+    One stable sort of a 64-bit hash of each row's bytes instead of a lexicographic sort of
+    the columns; rows that share a hash but differ (a collision, never seen) fall back to
+    :func:`_unique_rows`.
+    """
+    if len(v) == 0:
+        return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
+    bits = np.ascontiguousarray(v).view(np.uint64)
+    mix = np.uint64(0x9E3779B97F4A7C15)
+    h = np.zeros(len(v), dtype=np.uint64)
+    with np.errstate(over="ignore"):
+        for k in range(bits.shape[1]):
+            h = (h ^ bits[:, k]) * mix
+            h ^= h >> np.uint64(29)
+    first, inverse = _group(h.view(np.int64), v)
+    if not np.array_equal(bits[first][inverse], bits):  # a collision: exact but slower
+        return _unique_rows(v)
+    return first, inverse
+
+
+def unique_edges(faces: NDArray[np.int64]) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """Unique undirected edges and, per face corner-edge (m*3), the index of its edge.
+
+    Corner-edge ``3*f + k`` goes from ``faces[f, k]`` to ``faces[f, (k+1) % 3]``.  The edges
+    are ``(low, high)`` pairs in lexicographic order.
+    """
+    faces = np.asarray(faces, dtype=np.int64)
+    if len(faces) == 0:
+        return np.zeros((0, 2), dtype=np.int64), np.zeros(0, dtype=np.int64)
+    a = faces.ravel()
+    b = faces[:, [1, 2, 0]].ravel()
+    low, high = np.minimum(a, b), np.maximum(a, b)
+    n = int(high.max()) + 1
+    first, inverse = _group(low * n + high, low)
+    return np.stack([low[first], high[first]], axis=1), inverse
+
+
+def edge_topology_counts(faces: NDArray[np.int64]) -> tuple[int, int, int]:
+    """Number of unique edges, boundary edges (one face) and non-manifold edges (> 2 faces)."""
+    edges, inverse = unique_edges(faces)
+    count = np.bincount(inverse, minlength=len(edges))
+    return len(edges), int((count == 1).sum()), int((count > 2).sum())
+
+
+def euler_characteristic(n_vertices: int, faces: NDArray[np.int64]) -> int:
+    """Euler characteristic V - E + F of a mesh whose vertices are all referenced."""
+    n_edges = edge_topology_counts(faces)[0]
+    return int(n_vertices - n_edges + len(faces))
+
+
+def uniform_smoothing_operator(
+    n_vertices: int, faces: NDArray[np.int64]
+) -> tuple[sp.csr_matrix, NDArray[np.bool_]]:
+    """Row-stochastic neighbour-mean matrix M and the mask of vertices that have neighbours.
+
+    One step of uniform Laplacian smoothing is ``v += lam * (M @ v - v)`` on those vertices
+    (:func:`meshwm.attacks.smoothing.laplacian`); the robust decoder undoes it
+    (:mod:`meshwm.profiles.robust`).
+
+    An interior vertex averages all its edge neighbours.  A boundary vertex (one on an edge of
+    a single face) averages only its neighbours along the boundary, so a border is smoothed as
+    a polyline of its own and does not shrink into the surface (MeshLab's "1D boundary
+    smoothing", the default of its Laplacian filter).
+    """
+    edges, inverse = unique_edges(faces)
+    edges_used = edges[:, 0] != edges[:, 1]
+    border = np.bincount(inverse, minlength=len(edges)) == 1
+    edges, border = edges[edges_used], border[edges_used]
+    on_border = np.zeros(n_vertices, dtype=bool)
+    on_border[edges[border].ravel()] = True
+    rows = np.concatenate([edges[:, 0], edges[:, 1]])
+    cols = np.concatenate([edges[:, 1], edges[:, 0]])
+    keep = ~on_border[rows] | np.concatenate([border, border])
+    w = sp.csr_matrix(
+        (np.ones(int(keep.sum())), (rows[keep], cols[keep])), shape=(n_vertices, n_vertices)
+    )
+    degree = np.asarray(w.sum(axis=1)).ravel()
+    inv = np.divide(1.0, degree, out=np.zeros(n_vertices), where=degree > 0)
+    return (sp.diags(inv) @ w).tocsr(), degree > 0

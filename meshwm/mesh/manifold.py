@@ -1,0 +1,261 @@
+"""Manifold connectivity for :func:`meshwm.mesh.clean.clean_mesh`: fans split, pinched edges
+unpinched, components labelled, faces oriented (steps 4-6 of its notes).
+
+Each depends on the faces alone, except the radial pairing of the faces around a pinched
+edge; :func:`structure` keeps the last result for the same faces.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import threading
+
+import igl
+import numpy as np
+import scipy.sparse as sp
+from numpy.typing import NDArray
+from scipy.sparse.csgraph import connected_components
+
+from meshwm.errors import MeshError
+from meshwm.mesh.edges import unique_edges
+
+__all__ = ["face_components", "structure"]
+
+
+def _radial_pairs(
+    vertices: NDArray[np.float64],
+    faces: NDArray[np.int64],
+    edge: NDArray[np.int64],
+    corner_edges: NDArray[np.int64],
+) -> list[list[tuple[int, int]]] | None:
+    """Candidate pairings of the faces around an edge of more than two faces, or None.
+
+    The faces are sorted by angle around the edge and paired without crossing, each face with
+    one running the edge the other way.  There are at most two such matchings (pairing across
+    the wedges inside the surface, or across those outside); both are returned, and the caller
+    keeps the one that pairs faces of the same sheet.  This is how two closed sheets that touch
+    along an edge (a pinch) separate again.  Anything else (an odd number of faces, a fan) has
+    no manifold reading: None.
+    """
+    a, b = int(edge[0]), int(edge[1])
+    e = vertices[b] - vertices[a]
+    norm = np.linalg.norm(e)
+    if len(corner_edges) % 2 or norm == 0:
+        return None
+    e = e / norm
+    helper = np.eye(3)[int(np.argmin(np.abs(e)))]
+    u = np.cross(e, helper)
+    u /= np.linalg.norm(u)
+    w = np.cross(e, u)
+    fidx = corner_edges // 3
+    k = corner_edges % 3
+    forward = faces[fidx, k] == a  # runs a -> b
+    third = faces[fidx, (k + 2) % 3]
+    r = vertices[third] - vertices[a]
+    theta = np.arctan2(r @ w, r @ u)
+    order = np.lexsort((fidx, theta))
+    d = forward[order]
+    if d.sum() * 2 != len(d):
+        return None
+    n = len(order)
+    # A non-crossing matching of opposite runs around the circle is a bracket matching; there
+    # are at most two families (brackets opening on backward or on forward faces).
+    candidates = []
+    for opener in (False, True):
+        for offset in range(n):
+            stack: list[int] = []
+            pairs = []
+            for step in range(n):
+                i = (offset + step) % n
+                if d[i] == opener:
+                    stack.append(i)
+                elif stack:
+                    pairs.append(
+                        (int(corner_edges[order[stack.pop()]]), int(corner_edges[order[i]]))
+                    )
+                else:
+                    break
+            if len(pairs) * 2 == n:
+                candidates.append(pairs)
+                break
+    return candidates or None
+
+
+def _corner_labels(
+    faces: NDArray[np.int64], first: NDArray[np.int64], second: NDArray[np.int64]
+) -> tuple[int, NDArray[np.int64]]:
+    """Groups of face corners joined through the glued corner-edge pairs (first[k], second[k])."""
+    m = len(faces)
+    corner_a = np.arange(3 * m)
+    corner_b = (np.arange(m)[:, None] * 3 + (np.arange(3)[None, :] + 1) % 3).reshape(-1)
+    ca1, cb1, ca2, cb2 = corner_a[first], corner_b[first], corner_a[second], corner_b[second]
+    flat = faces.reshape(-1)
+    rows, cols = [], []
+    for c1 in (ca1, cb1):
+        for c2 in (ca2, cb2):
+            hit = flat[c1] == flat[c2]
+            rows.append(c1[hit])
+            cols.append(c2[hit])
+    rows_a = np.concatenate(rows)
+    cols_a = np.concatenate(cols)
+    graph = sp.coo_matrix((np.ones(len(rows_a)), (rows_a, cols_a)), shape=(3 * m, 3 * m)).tocsr()
+    return connected_components(graph, directed=False)
+
+
+def _rebuild_connectivity(
+    vertices: NDArray[np.float64], faces: NDArray[np.int64]
+) -> tuple[NDArray[np.int64], NDArray[np.int64], int, int]:
+    """Give each fan of faces around a vertex its own copy of the vertex.
+
+    Face corners at the same vertex are joined when their faces are glued along an edge through
+    that vertex.  An edge of two faces glues them; an edge of more faces is resolved by
+    :func:`_radial_pairs` or refused.  Each connected group of corners becomes one vertex (the
+    group holding a vertex's first corner keeps its index; positions are copied).
+
+    Returns the source of each output vertex (``vertices[source]`` are the output's
+    positions), the faces, the number of vertices added and of edges resolved radially.
+    """
+    m = len(faces)
+    edges, inverse = unique_edges(faces)
+    count = np.bincount(inverse, minlength=len(edges))
+    order = np.argsort(inverse, kind="stable")
+    sorted_edge = inverse[order]
+    two = count[sorted_edge[:-1]] == 2
+    same = (sorted_edge[1:] == sorted_edge[:-1]) & two
+    first, second = order[:-1][same], order[1:][same]
+    resolved = 0
+    heavy = np.flatnonzero(count > 2)
+    if len(heavy):
+        # Sheets glued along ordinary edges only: a pair of faces of the same sheet shares a
+        # corner group at the edge's first vertex.
+        _, pre = _corner_labels(faces, first, second)
+        flat = faces.reshape(-1)
+        starts = np.searchsorted(sorted_edge, heavy)
+        extra1, extra2 = [], []
+        for edge_id, s in zip(heavy.tolist(), starts.tolist(), strict=True):
+            a = int(edges[edge_id][0])
+            options = _radial_pairs(vertices, faces, edges[edge_id], order[s : s + count[edge_id]])
+            if options is None:
+                raise MeshError(
+                    f"mesh has {len(heavy)} non-manifold edges (shared by more than two faces, "
+                    f"first between vertices {a} and {edges[edge_id][1]}); "
+                    "repair it first, e.g. MeshLab 'Repair non Manifold Edges'"
+                )
+
+            def corner_at_a(corner_edge: int, a: int = a) -> int:
+                base = 3 * (corner_edge // 3)
+                return base + int(np.flatnonzero(flat[base : base + 3] == a)[0])
+
+            score = [
+                sum(pre[corner_at_a(p)] == pre[corner_at_a(q)] for p, q in pairs)
+                for pairs in options
+            ]
+            for p, q in options[int(np.argmax(score))]:
+                extra1.append(p)
+                extra2.append(q)
+            resolved += 1
+        first = np.concatenate([first, np.asarray(extra1, dtype=np.int64)])
+        second = np.concatenate([second, np.asarray(extra2, dtype=np.int64)])
+    n_groups, labels = _corner_labels(faces, first, second)
+    flat = faces.reshape(-1)
+    if n_groups == len(vertices):
+        return np.arange(len(vertices)), faces, 0, resolved
+    group_vertex = np.zeros(n_groups, dtype=np.int64)
+    group_vertex[labels] = flat
+    group_first = np.full(n_groups, 3 * m, dtype=np.int64)
+    np.minimum.at(group_first, labels, np.arange(3 * m))
+    order_g = np.lexsort((group_first, group_vertex))
+    gv = group_vertex[order_g]
+    is_first = np.ones(len(order_g), dtype=bool)
+    is_first[1:] = gv[1:] != gv[:-1]
+    new_id = np.empty(n_groups, dtype=np.int64)
+    new_id[order_g[is_first]] = gv[is_first]
+    extra = order_g[~is_first]
+    new_id[extra] = len(vertices) + np.arange(len(extra))
+    source = np.concatenate([np.arange(len(vertices)), group_vertex[extra]])
+    return source, new_id[labels].reshape(-1, 3), len(extra), resolved
+
+
+def _inconsistent_edges(faces: NDArray[np.int64]) -> int:
+    """Number of interior edges that both of their faces traverse in the same direction."""
+    directed = np.stack([faces, np.roll(faces, -1, axis=1)], axis=2).reshape(-1, 2)
+    _, inverse = unique_edges(faces)
+    forward = directed[:, 0] < directed[:, 1]
+    order = np.argsort(inverse, kind="stable")
+    sorted_edge = inverse[order]
+    same = sorted_edge[1:] == sorted_edge[:-1]
+    return int(np.sum(forward[order[:-1][same]] == forward[order[1:][same]]))
+
+
+def _orient(faces: NDArray[np.int64], labels: NDArray[np.int64]) -> tuple[NDArray[np.int64], int]:
+    """Consistently orient each component (breadth-first over faces, ``igl.bfs_orient``).
+
+    Within a component, the winding most input faces already have is kept.  Raises
+    :class:`MeshError` for a non-orientable component (a Möbius strip).
+    """
+    if _inconsistent_edges(faces) == 0:
+        return faces, 0
+    oriented, _ = igl.bfs_orient(faces)
+    if _inconsistent_edges(oriented) != 0:
+        raise MeshError("mesh is not orientable (a Möbius-like strip); cannot map it")
+    # A face was flipped if its first vertex is no longer followed by the same second vertex.
+    pos = np.argmax(oriented == faces[:, :1], axis=1)
+    flipped = oriented[np.arange(len(faces)), (pos + 1) % 3] != faces[:, 1]
+    n_comp = labels.max() + 1
+    invert = np.bincount(labels, weights=flipped, minlength=n_comp) * 2 > np.bincount(
+        labels, minlength=n_comp
+    )
+    oriented = np.where(invert[labels][:, None], oriented[:, ::-1], oriented)
+    flipped = flipped ^ invert[labels]
+    return oriented, int(flipped.sum())
+
+
+def face_components(n_vertices: int, faces: NDArray[np.int64]) -> NDArray[np.int64]:
+    """Component label per face; faces are joined through shared vertices."""
+    m = len(faces)
+    rows = np.repeat(np.arange(m), 3)
+    graph = sp.coo_matrix(
+        (np.ones(3 * m), (rows, faces.reshape(-1))), shape=(m, n_vertices)
+    ).tocsr()
+    adjacency = sp.bmat([[None, graph], [graph.T, None]]).tocsr()
+    _, labels = connected_components(adjacency, directed=False)
+    return labels[:m]
+
+
+#: The last mesh's connectivity work (:func:`_structure`), by a digest of its faces.
+_STRUCTURE: dict[tuple, tuple] = {}
+_STRUCTURE_LOCK = threading.Lock()
+
+
+def structure(
+    vertices: NDArray[np.float64], faces: NDArray[np.int64]
+) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.int64], dict]:
+    """Steps 4-6 of :func:`clean_mesh`: fans split, components labelled, faces oriented.
+
+    Returns the source vertex of each output vertex, the oriented faces, each face's
+    component and the report's counts.  Unless a non-manifold edge was resolved (by the
+    radial order of its faces, which depends on the positions), this depends on the faces
+    alone, so the last result is kept for the same faces: the embedder's read-back cleans
+    the marked mesh, whose faces are the input's.
+    """
+    digest = hashlib.blake2b(np.ascontiguousarray(faces).tobytes(), digest_size=16).digest()
+    key = (len(vertices), faces.shape, digest)
+    with _STRUCTURE_LOCK:
+        if key in _STRUCTURE:
+            return _STRUCTURE[key]
+    source, f, split, resolved = _rebuild_connectivity(vertices, faces)
+    labels = face_components(len(source), f)
+    f, flipped = _orient(f, labels)
+    counts = {
+        "vertices_split_nonmanifold": split,
+        "edges_unpinched": resolved,
+        "faces_reoriented": flipped,
+    }
+    found = (source, f, labels, counts)
+    for a in found[:3]:
+        a.flags.writeable = False
+    if resolved == 0:
+        with _STRUCTURE_LOCK:
+            _STRUCTURE.clear()
+            _STRUCTURE[key] = found
+    return found

@@ -1,0 +1,38 @@
+"""meshwm.gim.solve: the multigrid path of large systems agrees with the direct one."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from meshwm.gim import solve
+from meshwm.gim.stable import stable_cut
+from meshwm.gim.tutte import tutte_map
+
+
+def test_a_tutte_map_by_multigrid_equals_the_direct_one(spot_mesh, monkeypatch):
+    v, f = spot_mesh
+    cut = stable_cut(v, f)
+    label = np.empty_like(cut.order)
+    label[cut.order] = np.arange(len(cut.order))
+    rank = label[cut.mesh.origin]
+    direct = tutte_map(cut.mesh.faces, rank)
+    monkeypatch.setattr(solve, "DIRECT_LIMIT", 0)
+    amg = tutte_map(cut.mesh.faces, rank)
+    np.testing.assert_allclose(amg, direct, rtol=0, atol=1e-8)
+    np.testing.assert_array_equal(amg, tutte_map(cut.mesh.faces, rank))  # deterministic
+
+
+@pytest.mark.parametrize("limit", [0, 10**9])
+def test_spd_solver_solves(limit, monkeypatch):
+    monkeypatch.setattr(solve, "DIRECT_LIMIT", limit)
+    n = 400
+    rng = np.random.default_rng(0)
+    main = np.full(n, 2.5)
+    off = -np.ones(n - 1)
+    import scipy.sparse as sp
+
+    matrix = sp.diags([off, main, off], [-1, 0, 1]).tocsr()
+    rhs = rng.normal(size=(n, 3))
+    x = solve.SpdSolver(matrix, tol=1e-12).solve(rhs)
+    np.testing.assert_allclose(matrix @ x, rhs, atol=1e-9)
