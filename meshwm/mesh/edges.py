@@ -86,16 +86,17 @@ def _hashed_groups(v: NDArray) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
 
 
 def unique_edges(faces: NDArray[np.int64]) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
-    """Unique undirected edges and, per face corner-edge (m*3), the index of its edge.
+    """Unique undirected edges and, per face corner-edge (m*k), the index of its edge.
 
-    Corner-edge ``3*f + k`` goes from ``faces[f, k]`` to ``faces[f, (k+1) % 3]``.  The edges
-    are ``(low, high)`` pairs in lexicographic order.
+    Corner-edge ``k*f + j`` goes from ``faces[f, j]`` to ``faces[f, (j+1) % k]`` (triangles,
+    ``k = 3``; any polygon width, an edge list included).  The edges are ``(low, high)`` pairs
+    in lexicographic order.
     """
     faces = np.asarray(faces, dtype=np.int64)
     if len(faces) == 0:
         return np.zeros((0, 2), dtype=np.int64), np.zeros(0, dtype=np.int64)
     a = faces.ravel()
-    b = faces[:, [1, 2, 0]].ravel()
+    b = np.roll(faces, -1, axis=1).ravel()
     low, high = np.minimum(a, b), np.maximum(a, b)
     n = int(high.max()) + 1
     first, inverse = _group(low * n + high, low)

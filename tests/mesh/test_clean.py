@@ -651,3 +651,14 @@ def test_shared_cleaning_cleans_the_same_arrays_once(spot_mesh):
     np.testing.assert_array_equal(a.faces, plain.faces)
     assert a.report == plain.report
     assert clean_module.clean_mesh(v, f).vertices.flags.writeable  # outside: no sharing
+
+
+@pytest.mark.parametrize("width", [2, 3, 4])
+def test_unique_edges_any_polygon_width(width: int) -> None:
+    rng = np.random.default_rng(width)
+    faces = rng.integers(0, 30, size=(200, width))
+    edges, inverse = unique_edges(faces)
+    directed = np.stack([faces, np.roll(faces, -1, axis=1)], axis=2).reshape(-1, 2)
+    expected = np.unique(np.sort(directed, axis=1), axis=0)
+    np.testing.assert_array_equal(edges, expected)
+    np.testing.assert_array_equal(edges[inverse], np.sort(directed, axis=1))
