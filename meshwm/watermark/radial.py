@@ -72,11 +72,14 @@ def _costs(
     e1 = points[faces[:, 1]] - points[faces[:, 0]]
     e2 = points[faces[:, 2]] - points[faces[:, 0]]
     cross = np.cross(e1, e2)
-    normal = np.zeros_like(points)
-    area = np.zeros(len(points))
-    for k in range(3):
-        np.add.at(normal, faces[:, k], cross)
-        np.add.at(area, faces[:, k], 0.5 * np.linalg.norm(cross, axis=1) / 3.0)
+    n = len(points)
+    corners = faces.T.ravel()  # each face's corners, column by column
+    third = np.tile(0.5 * np.linalg.norm(cross, axis=1) / 3.0, 3)
+    area = np.bincount(corners, weights=third, minlength=n)
+    normal = np.stack(
+        [np.bincount(corners, weights=np.tile(cross[:, c], 3), minlength=n) for c in range(3)],
+        axis=1,
+    )
     normal /= np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-300)
     across = np.einsum("ij,ij->i", normal, directions)
     floor = max(float(area.mean()), 1e-300) * 1e-3
