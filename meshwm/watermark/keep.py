@@ -185,10 +185,15 @@ def _vertex_distances(
         for k in range(3)
     )
     reach = float(move[ask].max()) + edge
+    # Every vertex within ``reach`` of a queried one: one nearest-neighbour query of all
+    # vertices against the queried ones, bounded by ``reach`` (the same set as a ball query
+    # around each queried vertex, without a list per vertex: 0.5M vertices, 90 s and 12 GB
+    # that way).
+    bound = float(np.nextafter(reach, np.inf))
     near = np.zeros(len(positions), dtype=bool)
     for p in (positions, moved):
-        hits = cKDTree(p).query_ball_point(p[ask], r=reach, return_sorted=False)
-        near[np.concatenate([np.asarray(h, dtype=np.int64) for h in hits])] = True
+        gap, _ = cKDTree(p[ask]).query(p, k=1, distance_upper_bound=bound)
+        near |= gap <= reach
     sub = f[near[f].any(axis=1)]
     there = igl.point_mesh_squared_distance(moved[ask], positions, sub)[0]
     back = igl.point_mesh_squared_distance(positions[ask], moved, sub)[0]
