@@ -80,7 +80,7 @@ def _costs(
         [np.bincount(corners, weights=np.tile(cross[:, c], 3), minlength=n) for c in range(3)],
         axis=1,
     )
-    normal /= np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-300)
+    normal = normal / np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-300)
     across = np.einsum("ij,ij->i", normal, directions)
     floor = max(float(area.mean()), 1e-300) * 1e-3
     return np.maximum(area, floor) * (across**2 + _SLIDE)

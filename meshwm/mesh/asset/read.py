@@ -2,14 +2,13 @@
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 from meshwm._validate import DEFAULT_MAX_FACES, check_integer
 from meshwm.errors import MeshError
 from meshwm.mesh.asset.document import Asset
 from meshwm.mesh.asset.registry import format_for
-from meshwm.mesh.io.common import PathLike, describe, mesh_error, vertex_limit
+from meshwm.mesh.io.common import PathLike, describe, mesh_error, read_file_bytes, vertex_limit
 from meshwm.mesh.io.registry import READERS
 
 __all__ = ["read_asset"]
@@ -54,17 +53,7 @@ def read_asset(path: PathLike, *, max_faces: int = DEFAULT_MAX_FACES) -> Asset:
     """
     max_faces = check_integer(max_faces, name="max_faces", low=1)
     fmt = format_for(path)
-    if not os.path.lexists(path):
-        raise mesh_error(path, "no such file")
-    if os.path.isdir(path):
-        raise mesh_error(path, "is a directory, not a mesh file")
-    try:
-        with open(path, "rb") as stream:
-            data = stream.read()
-    except OSError as exc:
-        raise mesh_error(path, f"cannot read file ({exc.strerror or describe(exc)})") from exc
-    if not data:
-        raise mesh_error(path, "file is empty (0 bytes)")
+    data = read_file_bytes(path)
     reader = READERS.get(Path(path).suffix.lower())
     try:
         if reader is not None:

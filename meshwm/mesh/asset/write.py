@@ -2,14 +2,13 @@
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 from meshwm._atomic import write_atomic
 from meshwm.errors import MeshError
 from meshwm.mesh.asset.document import Asset
 from meshwm.mesh.asset.registry import ASSET_SUFFIXES, FORMATS
-from meshwm.mesh.io.common import PathLike, describe, mesh_error
+from meshwm.mesh.io.common import PathLike, check_destination, describe, mesh_error
 
 __all__ = ["asset_bytes", "check_asset_output", "missing_sidecars", "write_asset"]
 
@@ -31,17 +30,7 @@ def check_asset_output(
         raise mesh_error(
             path, f"cannot write {what}; valid output suffixes are {', '.join(ASSET_SUFFIXES)}"
         )
-    parent = Path(path).resolve().parent
-    if not parent.is_dir():
-        raise mesh_error(path, f"folder {parent} does not exist")
-    if (
-        overwrite_input is not None
-        and not force
-        and os.path.exists(path)
-        and os.path.exists(overwrite_input)
-        and os.path.samefile(path, overwrite_input)
-    ):
-        raise mesh_error(path, "would overwrite the input; use --force")
+    check_destination(path, overwrite_input=overwrite_input, force=force)
 
 
 def asset_bytes(asset: Asset, suffix: str | None = None) -> bytes:

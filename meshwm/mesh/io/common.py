@@ -15,6 +15,7 @@ import re
 import warnings
 from collections.abc import Iterator
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
@@ -25,9 +26,11 @@ __all__ = [
     "VERTEX_SLACK",
     "Declared",
     "PathLike",
+    "check_destination",
     "describe",
     "mesh_error",
     "quiet_trimesh",
+    "read_file_bytes",
     "vertex_limit",
 ]
 
@@ -45,6 +48,47 @@ def mesh_error(path: PathLike, detail: str) -> MeshError:
     """Build a one-line :class:`MeshError` ``"<path>: <detail>"``."""
     message = f"{os.fspath(path)}: {detail}"
     return MeshError(" ".join(message.splitlines()))
+
+
+def read_file_bytes(path: PathLike) -> bytes:
+    """The bytes of an existing, readable, non-empty file.
+
+    Raises
+    ------
+    MeshError
+        No such file, a directory, unreadable, or empty; one line naming the file.
+    """
+    if not os.path.lexists(path):
+        raise mesh_error(path, "no such file")
+    if os.path.isdir(path):
+        raise mesh_error(path, "is a directory, not a mesh file")
+    try:
+        with open(path, "rb") as stream:
+            data = stream.read()
+    except OSError as exc:
+        raise mesh_error(path, f"cannot read file ({exc.strerror or describe(exc)})") from exc
+    if not data:
+        raise mesh_error(path, "file is empty (0 bytes)")
+    return data
+
+
+def check_destination(
+    path: PathLike, *, overwrite_input: PathLike | None = None, force: bool = False
+) -> None:
+    """Raise unless ``path``'s folder exists and, without ``force``, ``path`` is not the
+    same file as ``overwrite_input`` (:func:`os.path.samefile`: links and relative paths
+    count)."""
+    parent = Path(path).resolve().parent
+    if not parent.is_dir():
+        raise mesh_error(path, f"folder {parent} does not exist")
+    if (
+        overwrite_input is not None
+        and not force
+        and os.path.exists(path)
+        and os.path.exists(overwrite_input)
+        and os.path.samefile(path, overwrite_input)
+    ):
+        raise mesh_error(path, "would overwrite the input; use --force")
 
 
 def describe(exc: BaseException) -> str:

@@ -2,14 +2,19 @@
 
 from __future__ import annotations
 
-import os
-
 import numpy as np
 from numpy.typing import NDArray
 
 from meshwm._validate import DEFAULT_MAX_FACES, check_integer, check_mesh
 from meshwm.errors import MeshError
-from meshwm.mesh.io.common import PathLike, describe, mesh_error, quiet_trimesh, vertex_limit
+from meshwm.mesh.io.common import (
+    PathLike,
+    describe,
+    mesh_error,
+    quiet_trimesh,
+    read_file_bytes,
+    vertex_limit,
+)
 from meshwm.mesh.io.registry import reader_for
 
 __all__ = ["read_mesh"]
@@ -79,17 +84,7 @@ def read_mesh(
     max_faces = check_integer(max_faces, name="max_faces", low=1)
 
     reader = reader_for(path)
-    if not os.path.lexists(path):
-        raise mesh_error(path, "no such file")
-    if os.path.isdir(path):
-        raise mesh_error(path, "is a directory, not a mesh file")
-    try:
-        with open(path, "rb") as stream:
-            data = stream.read()
-    except OSError as exc:
-        raise mesh_error(path, f"cannot read file ({exc.strerror or describe(exc)})") from exc
-    if not data:
-        raise mesh_error(path, "file is empty (0 bytes)")
+    data = read_file_bytes(path)
 
     if reader.prepare is not None:
         data = reader.prepare(data)

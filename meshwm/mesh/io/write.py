@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import numpy as np
@@ -11,7 +10,7 @@ from numpy.typing import NDArray
 from meshwm._atomic import write_atomic
 from meshwm._validate import check_mesh
 from meshwm.errors import MeshError
-from meshwm.mesh.io.common import PathLike, describe, mesh_error
+from meshwm.mesh.io.common import PathLike, check_destination, describe, mesh_error
 from meshwm.mesh.io.registry import WRITE_SUFFIXES, WRITERS
 
 __all__ = ["check_output", "check_output_suffix", "write_mesh"]
@@ -61,17 +60,7 @@ def check_output(
         Unsupported suffix, or the output would overwrite the input.
     """
     check_output_suffix(path)
-    parent = Path(path).resolve().parent
-    if not parent.is_dir():
-        raise mesh_error(path, f"folder {parent} does not exist")
-    if (
-        overwrite_input is not None
-        and not force
-        and os.path.exists(path)
-        and os.path.exists(overwrite_input)
-        and os.path.samefile(path, overwrite_input)
-    ):
-        raise mesh_error(path, "would overwrite the input; use --force")
+    check_destination(path, overwrite_input=overwrite_input, force=force)
 
 
 def write_mesh(

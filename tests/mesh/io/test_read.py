@@ -15,7 +15,7 @@ import trimesh
 from _io_checks import ASSETS, assert_one_line_error
 from _malformed import CASE_IDS, MUST_FAIL_ON_READ_IDS, MalformedCase, make_malformed_cases
 
-import meshwm.mesh.io.read as mio_read
+import meshwm.mesh.io.common as mio_common
 from meshwm.errors import MeshError
 from meshwm.mesh.io import read_mesh
 
@@ -105,7 +105,7 @@ def test_read_error_is_converted(tmp_path: Path, monkeypatch: pytest.MonkeyPatch
     def deny(*args: object, **kwargs: object) -> None:
         raise PermissionError(13, "Permission denied")
 
-    monkeypatch.setattr(mio_read, "open", deny, raising=False)  # shadows the builtin there
+    monkeypatch.setattr(mio_common, "open", deny, raising=False)  # shadows the builtin there
     with pytest.raises(MeshError, match=r"cannot read file \(Permission denied\)") as error:
         read_mesh(path)
     assert_one_line_error(error, path)
