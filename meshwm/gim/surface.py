@@ -41,6 +41,7 @@ __all__ = [
     "Surface",
     "SurfaceImage",
     "remap_surface",
+    "same_cleaning",
     "sample_surface",
     "surface_of",
 ]
@@ -174,20 +175,32 @@ def surface_of(
     positions, inverse = _distinct(v)
     clean = clean_mesh(v, f, max_faces=max_faces)
     to_position = _locate(positions, clean.vertices)
-    reuse = None
-    if (
-        like is not None
-        and like.report.get("merged", True)
-        and np.array_equal(like.inverse, inverse)
-        and np.array_equal(like.clean_to_position, to_position)
-        and np.array_equal(like.faces, to_position[clean.faces])
-    ):
-        reuse = like.map
+    same = same_cleaning(like, inverse, to_position, to_position[clean.faces])
+    reuse = like.map if like is not None and same else None
     smap = _map_filled(clean.vertices, clean.faces, rank=rank, like=reuse)
     used = np.zeros(len(positions), dtype=bool)
     used[to_position] = True
     return Surface(
         positions, inverse, to_position[clean.faces], used, smap, to_position, clean.report
+    )
+
+
+def same_cleaning(
+    like: Surface | None,
+    inverse: NDArray[np.int64],
+    to_position: NDArray[np.int64],
+    faces: NDArray[np.int64],
+) -> bool:
+    """Whether a mesh whose vertices go to distinct positions by ``inverse``, cleaned to
+    ``faces`` over those positions (its cleaned vertices at ``to_position``), is ``like``'s
+    cleaned surface with its positions moved: then ``like``'s map can be restarted on it
+    (:func:`~meshwm.gim.tutte.restart_map`)."""
+    return (
+        like is not None
+        and bool(like.report.get("merged", True))
+        and np.array_equal(like.inverse, inverse)
+        and np.array_equal(like.clean_to_position, to_position)
+        and np.array_equal(like.faces, faces)
     )
 
 
@@ -213,7 +226,9 @@ def _as_given(
     return Surface(v.copy(), np.arange(n, dtype=np.int64), cf_in, used, smap, index, report)
 
 
-def remap_surface(surface: Surface, positions: NDArray, *, rank: int = 0) -> Surface:
+def remap_surface(
+    surface: Surface, positions: NDArray, *, rank: int = 0, like: StableMap | None = None
+) -> Surface:
     """The same cleaned surface with its distinct positions moved, and mapped again.
 
     Cleaning depends on which positions coincide and on the faces, which moving every copy of
@@ -227,12 +242,16 @@ def remap_surface(surface: Surface, positions: NDArray, *, rank: int = 0) -> Sur
         New distinct positions, one per ``surface.positions``.
     rank : int, optional
         The cut's candidate start.
+    like : StableMap, optional
+        A map of the same cleaned surface with other positions (the input's, when the
+        embedder reads its output back): reused where this rank's start is its start, bit for
+        bit what the map would be without it (:func:`~meshwm.gim.tutte.restart_map`).
     """
     p = np.asarray(positions, dtype=np.float64)
     k = len(surface.clean_to_position)
     filled = surface.map.cut.mesh.origin[surface.map.cut.mesh.faces]
     clean_faces = filled[np.all(filled < k, axis=1)]
-    smap = _map_filled(p[surface.clean_to_position], clean_faces, rank=rank)
+    smap = _map_filled(p[surface.clean_to_position], clean_faces, rank=rank, like=like)
     return surface._replace(positions=p, map=smap)
 
 

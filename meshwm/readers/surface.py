@@ -32,6 +32,7 @@ from meshwm.gim.surface import (
     Surface,
     SurfaceImage,
     remap_surface,
+    same_cleaning,
     sample_surface,
     surface_of,
 )
@@ -113,6 +114,10 @@ def read_surface(
         except MeshError:  # a surface the map cannot open: nothing to read
             raise GridError(f"the surface cannot be mapped: {merged}") from merged
     surfaces: dict[tuple[bool, int], Surface] = {(False, SURFACE_RANKS[0]): first}
+    # The embedder's read-back: the input's map, restarted wherever a start is its start.
+    welded = bool(first.report.get("merged", True))
+    same = welded and same_cleaning(like, first.inverse, first.clean_to_position, first.faces)
+    restart = like.map if like is not None and same else None
     # Tips whose first edge is a near-tie are also started along the runner-up edge.
     ranks = (*SURFACE_RANKS, *(r for r in first.map.cut.near_ties if r not in SURFACE_RANKS))
     starts = [(False, r) for r in ranks]
@@ -132,7 +137,8 @@ def read_surface(
                         v, f, max_faces=max_faces, merge=False, min_used=least
                     )
                 base = surfaces[(given, SURFACE_RANKS[0])]
-                surfaces[(given, rank)] = remap_surface(base, base.positions, rank=rank)
+                hint = None if given else restart
+                surfaces[(given, rank)] = remap_surface(base, base.positions, rank=rank, like=hint)
             except MeshError:
                 surfaces[(given, rank)] = first  # no such start or surface: the first again
         return surfaces[(given, rank)]
