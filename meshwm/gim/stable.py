@@ -46,7 +46,6 @@ through the fan it is reached by.
 
 from __future__ import annotations
 
-import hashlib
 import threading
 from collections import OrderedDict
 from typing import NamedTuple
@@ -57,6 +56,7 @@ import scipy.sparse as sp
 from numpy.typing import NDArray
 from scipy.sparse.csgraph import connected_components
 
+from meshwm._digest import arrays_key
 from meshwm.errors import MeshError
 from meshwm.gim.cut import CutMesh, area_centroid, cut_open, path_edges
 from meshwm.mesh.clean import euler_characteristic, uniform_smoothing_operator, unique_edges
@@ -389,14 +389,7 @@ def _smoothed_sources(
     :func:`stable_cut` of the same mesh: a pure function of the arrays, so the last
     :data:`_MEMO_SIZE` meshes' results are kept (by a digest of their bytes).
     """
-    key = (
-        vertices.shape,
-        faces.shape,
-        hashlib.blake2b(np.ascontiguousarray(vertices).tobytes(), digest_size=16).digest(),
-        hashlib.blake2b(np.ascontiguousarray(faces).tobytes(), digest_size=16).digest(),
-        int(steps),
-        float(lam),
-    )
+    key = (*arrays_key(vertices, faces), int(steps), float(lam))
     with _MEMO_LOCK:
         if key in _MEMO:
             _MEMO.move_to_end(key)

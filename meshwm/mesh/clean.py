@@ -29,13 +29,13 @@ from __future__ import annotations
 
 import contextlib
 import contextvars
-import hashlib
 from collections.abc import Iterator
 from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
 
+from meshwm._digest import arrays_key
 from meshwm._validate import DEFAULT_MAX_FACES, check_mesh
 from meshwm.errors import MeshError
 from meshwm.mesh.edges import (
@@ -211,14 +211,7 @@ def clean_mesh(
     if memo is None:
         return _clean_mesh(vertices, faces, max_faces=max_faces, min_faces=min_faces)
     v, f = check_mesh(vertices, faces, max_faces=max_faces)
-    key = (
-        v.shape,
-        f.shape,
-        hashlib.blake2b(np.ascontiguousarray(v).tobytes(), digest_size=16).digest(),
-        hashlib.blake2b(np.ascontiguousarray(f).tobytes(), digest_size=16).digest(),
-        int(max_faces),
-        int(min_faces),
-    )
+    key = (*arrays_key(v, f), int(max_faces), int(min_faces))
     if key not in memo:
         out = _clean_mesh(v, f, max_faces=max_faces, min_faces=min_faces)
         for a in (out.vertices, out.faces, out.other_vertices, out.other_faces):
