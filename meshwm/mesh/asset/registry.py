@@ -15,7 +15,7 @@ from pathlib import Path
 
 from meshwm.mesh.asset import gltf, obj, off, ply, stl
 from meshwm.mesh.asset.document import Asset
-from meshwm.mesh.io.common import PathLike, mesh_error
+from meshwm.mesh.io.common import PathLike, suffix_error
 
 __all__ = ["ASSET_SUFFIXES", "FORMATS", "AssetFormat", "format_for"]
 
@@ -53,6 +53,5 @@ def format_for(path: PathLike) -> AssetFormat:
     suffix = Path(path).suffix.lower()
     found = FORMATS.get(suffix)
     if found is None:
-        shown = f"unknown mesh file suffix {suffix!r}" if suffix else "file name has no suffix"
-        raise mesh_error(path, f"{shown}; valid suffixes are {', '.join(ASSET_SUFFIXES)}")
+        raise suffix_error(path, ASSET_SUFFIXES)
     return found

@@ -31,6 +31,7 @@ __all__ = [
     "mesh_error",
     "quiet_trimesh",
     "read_file_bytes",
+    "suffix_error",
     "vertex_limit",
 ]
 
@@ -48,6 +49,13 @@ def mesh_error(path: PathLike, detail: str) -> MeshError:
     """Build a one-line :class:`MeshError` ``"<path>: <detail>"``."""
     message = f"{os.fspath(path)}: {detail}"
     return MeshError(" ".join(message.splitlines()))
+
+
+def suffix_error(path: PathLike, valid: tuple[str, ...] | list[str]) -> MeshError:
+    """The one-line error for a file whose suffix is unknown or missing, listing ``valid``."""
+    suffix = Path(path).suffix.lower()
+    shown = f"unknown mesh file suffix {suffix!r}" if suffix else "file name has no suffix"
+    return mesh_error(path, f"{shown}; valid suffixes are {', '.join(valid)}")
 
 
 def read_file_bytes(path: PathLike) -> bytes:

@@ -18,7 +18,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from meshwm.mesh.io import glb, obj, off, ply, stl
-from meshwm.mesh.io.common import Declared, PathLike, mesh_error
+from meshwm.mesh.io.common import Declared, PathLike, suffix_error
 
 __all__ = ["READERS", "READ_SUFFIXES", "WRITERS", "WRITE_SUFFIXES", "Reader", "reader_for"]
 
@@ -89,6 +89,5 @@ def reader_for(path: PathLike) -> Reader:
     suffix = Path(path).suffix.lower()
     reader = READERS.get(suffix)
     if reader is None:
-        shown = f"unknown mesh file suffix {suffix!r}" if suffix else "file name has no suffix"
-        raise mesh_error(path, f"{shown}; valid suffixes are {', '.join(READ_SUFFIXES)}")
+        raise suffix_error(path, READ_SUFFIXES)
     return reader
