@@ -46,6 +46,7 @@ _API = {
     "CapacityError": "meshwm.errors",
     "GridError": "meshwm.errors",
     "MeshError": "meshwm.errors",
+    "RegistryError": "meshwm.errors",
 }
 
 #: Sub-packages reachable as attributes without an import (``meshwm.data.path("spot")``).
@@ -55,6 +56,7 @@ __all__ = [
     "CapacityError",
     "GridError",
     "MeshError",
+    "RegistryError",
     "Verdict",
     "WatermarkParams",
     "__version__",
@@ -77,7 +79,7 @@ __all__ = [
 if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only
     from meshwm import data
     from meshwm.detect import Verdict
-    from meshwm.errors import CapacityError, GridError, MeshError
+    from meshwm.errors import CapacityError, GridError, MeshError, RegistryError
     from meshwm.mesh.asset import read_asset, write_asset
     from meshwm.mesh.io import read_mesh, write_mesh
     from meshwm.message.payload import format_id, parse_id

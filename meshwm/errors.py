@@ -6,7 +6,7 @@ the fix; the command line prints it on stderr and exits with code 2.
 
 from __future__ import annotations
 
-__all__ = ["CapacityError", "GridError", "MeshError"]
+__all__ = ["CapacityError", "GridError", "MeshError", "RegistryError"]
 
 
 class MeshError(ValueError):
@@ -19,3 +19,10 @@ class GridError(ValueError):
 
 class CapacityError(ValueError):
     """A payload longer than the geometry image can carry; the message names the largest."""
+
+
+class RegistryError(ValueError):
+    """An asset registry that cannot be opened or used, or an id it does not hold.
+
+    The message is one line and names the registry (a path, or a URL without its password).
+    """

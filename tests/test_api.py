@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import meshwm
-from meshwm import CapacityError, GridError, MeshError, Verdict, WatermarkParams
+from meshwm import CapacityError, GridError, MeshError, RegistryError, Verdict, WatermarkParams
 
 HEAVY = ("trimesh", "igl", "pymeshlab", "scipy", "pywt", "skfuzzy", "matplotlib", "PIL")
 
@@ -23,7 +23,7 @@ def test_every_public_name_resolves():
 
 
 def test_errors_are_value_errors():
-    for error in (CapacityError, GridError, MeshError):
+    for error in (CapacityError, GridError, MeshError, RegistryError):
         assert issubclass(error, ValueError)
 
 
