@@ -20,6 +20,7 @@ pytest_plugins = [
     "_fixtures_cutmap",
     "_fixtures_gim",
     "_fixtures_recover",
+    "_fixtures_registry",
 ]
 
 
