@@ -27,7 +27,18 @@ from typing import Protocol
 
 from meshwm import __version__
 from meshwm._malloc import keep_freed_memory
-from meshwm.apps.cli import attack, bench, demo, docs, embed, extract, remesh, render, verify
+from meshwm.apps.cli import (
+    attack,
+    bench,
+    demo,
+    docs,
+    embed,
+    extract,
+    registry,
+    remesh,
+    render,
+    verify,
+)
 from meshwm.apps.cli.output import EXIT_ERROR
 
 __all__ = ["COMMANDS", "EXIT_PIPE", "build_parser", "main"]
@@ -50,7 +61,7 @@ class Command(Protocol):
 #: Command name -> its module, in the order ``meshwm --help`` lists them.
 COMMANDS: dict[str, Command] = {
     module.NAME: module
-    for module in (remesh, embed, extract, verify, attack, render, demo, bench, docs)
+    for module in (remesh, embed, extract, verify, attack, render, demo, bench, registry, docs)
 }
 
 
