@@ -34,6 +34,7 @@ __all__ = [
     "check_schema",
     "copies",
     "create_schema",
+    "lock_schema",
     "meta",
     "metadata",
     "references",

@@ -113,20 +113,30 @@ class Registry:
         backend = backends.connect(target, create=create)
         registry = cls(backend)
         try:
-
-            def prepare(connection: Connection) -> None:
-                if backend.dialect == "postgresql":
-                    lock_schema(connection)
-                check_schema(connection, name=backend.name, create=create)
-
-            registry._write(prepare)
-            if backend.dialect == "sqlite":
-                with backends.errors_as_registry_errors(backend.name):
-                    backends.set_wal(backend)
+            if create:
+                registry._create_or_check()
+            else:  # an existing registry only: a read transaction, no write lock taken
+                with registry._read() as connection:
+                    check_schema(connection, name=backend.name, create=False)
         except BaseException:
             registry.close()
             raise
         return registry
+
+    def _create_or_check(self) -> None:
+        """Create the tables if the database has none, else check them, in a write transaction
+        (under a lock on PostgreSQL), so processes opening a new registry at once create it
+        once; then SQLite's journal goes to WAL (which a transaction cannot change)."""
+
+        def prepare(connection: Connection) -> None:
+            if self.dialect == "postgresql":
+                lock_schema(connection)
+            check_schema(connection, name=self.name, create=True)
+
+        self._write(prepare)
+        if self.dialect == "sqlite":
+            with backends.errors_as_registry_errors(self.name):
+                backends.set_wal(self._backend)
 
     @property
     def name(self) -> str:
