@@ -151,20 +151,24 @@ def target(request: pytest.FixtureRequest, tmp_path: Path) -> str:
     return str(url)
 
 
-def execute_sql(target: str, *statements: str) -> None:
-    """Run SQL on a registry behind its back (to damage it on purpose), in one transaction."""
+def execute_sql(target: str, *statements: str) -> list[tuple]:
+    """Run SQL on a registry behind its back (to look inside it or damage it on purpose), in
+    one transaction; the rows of the last statement, if it returns any."""
     from sqlalchemy import create_engine, text
 
     url = target.replace("postgresql://", "postgresql+psycopg://", 1)
     if "://" not in url:
         url = f"sqlite:///{target}"
     engine = create_engine(url)
+    rows: list[tuple] = []
     try:
         with engine.begin() as connection:
             for statement in statements:
-                connection.execute(text(statement))
+                result = connection.execute(text(statement))
+                rows = [tuple(row) for row in result] if result.returns_rows else []
     finally:
         engine.dispose()
+    return rows
 
 
 def make_asset(index: int, *, sizes: tuple[int, ...] = (64, 128), reference_bytes: int = 1000):

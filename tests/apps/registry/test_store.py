@@ -8,7 +8,7 @@ import time
 
 import numpy as np
 import pytest
-from _fixtures_registry import DESCRIPTOR_LENGTH, make_asset, make_copy
+from _fixtures_registry import DESCRIPTOR_LENGTH, execute_sql, make_asset, make_copy
 
 from meshwm.apps.registry import AssetEntry, AssetRecord, CopyRecord, Registry, RegistryError
 from meshwm.apps.registry.entries import encode_descriptor
@@ -122,7 +122,10 @@ def test_remove_asset_cascades(target):
         assert [c.asset_id for c in registry.copies()] == [kept]
         with pytest.raises(RegistryError, match=f"no asset with id {gone}"):
             registry.references(gone)
-        # no orphan rows: a new asset with the same input starts without the old references
+        for table in ("copies", '"references"'):
+            rows = execute_sql(target, f"SELECT count(*) FROM {table} WHERE asset_id = {gone}")
+            assert rows == [(0,)], table
+        # a new asset with the same input starts without the old references
         again, _ = registry.record_embed(make_asset(2, sizes=(64,)), make_copy(4))
         assert again != gone and set(registry.references(again)) == {64}
 
