@@ -203,6 +203,9 @@ class CopyEntry:
     params : mapping
         The embedding's options, JSON values only; a name ``key`` or ``secret`` (any case,
         any depth) is refused with :class:`ValueError`.
+    signature : bytes or None
+        The copy's mark signature as the informed reader needs it, sealed under the key by the
+        caller (:func:`meshwm.readers.informed.seal_signature`); opaque here.
     """
 
     payload: str
@@ -211,6 +214,7 @@ class CopyEntry:
     output_sha256: str
     n: int
     params: Mapping[str, Any] = field(default_factory=dict)
+    signature: bytes | None = None
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "payload", normalise_payload(self.payload))
@@ -220,6 +224,10 @@ class CopyEntry:
         object.__setattr__(self, "output_sha256", _sha256("output_sha256", self.output_sha256))
         object.__setattr__(self, "n", _count("n", self.n, low=1))
         encode_params(self.params)  # refuses a key, or a value JSON cannot hold, now
+        if self.signature is not None:
+            if not isinstance(self.signature, bytes | bytearray | memoryview):
+                raise TypeError(f"signature must be bytes, got {type(self.signature).__name__}")
+            object.__setattr__(self, "signature", bytes(self.signature))
 
 
 @dataclass(frozen=True)
@@ -237,7 +245,8 @@ class AssetRecord:
 
 @dataclass(frozen=True)
 class CopyRecord:
-    """A recorded copy; ``created`` is UTC ISO-8601 text, ``params`` the stored JSON decoded."""
+    """A recorded copy; ``created`` is UTC ISO-8601 text, ``params`` the stored JSON decoded,
+    ``signature`` the sealed signature (or None)."""
 
     id: int
     asset_id: int
@@ -248,3 +257,4 @@ class CopyRecord:
     n: int
     created: str
     params: dict[str, Any]
+    signature: bytes | None = None

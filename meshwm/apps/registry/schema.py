@@ -86,6 +86,7 @@ copies = Table(
     Column("n", Integer, nullable=False),
     Column("created", Text, nullable=False),
     Column("params", Text, nullable=False),
+    Column("signature", LargeBinary, nullable=True),
     Index("ix_copies_asset_id", "asset_id"),
     Index("ix_copies_payload", "payload"),
     sqlite_autoincrement=True,

@@ -270,6 +270,7 @@ class Registry:
                     n=copy.n,
                     created=created,
                     params=params,
+                    signature=copy.signature,
                 )
             )
             (copy_id,) = result.inserted_primary_key or (0,)
@@ -430,4 +431,6 @@ class Registry:
 def _copy_record(row: Row[Any]) -> CopyRecord:
     values = row._asdict()
     values["params"] = decode_params(values["params"])
+    if values["signature"] is not None:
+        values["signature"] = bytes(values["signature"])
     return CopyRecord(**values)
