@@ -43,6 +43,8 @@ _MODULES: dict[str, str] = {
     "simplify": _TESSELLATION,
     "subdivide_midpoint": _TESSELLATION,
     "subdivide_loop": _TESSELLATION,
+    "remesh_isotropic": _TESSELLATION,
+    "poisson": _TESSELLATION,
     "flip_edges": _CONNECTIVITY,
     "retriangulate": _CONNECTIVITY,
     "split_seams": _SEAMS,

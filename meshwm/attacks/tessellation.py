@@ -1,4 +1,4 @@
-"""Attacks that change the connectivity: quadric simplification and subdivision (MeshLab).
+"""Attacks that change the connectivity: simplification, subdivision, remeshing (MeshLab).
 
 MEPP simplification (Wang et al., "A benchmark for 3D mesh watermarking", SMI 2010,
 doi:10.1109/SMI.2010.33) and midpoint and Loop subdivision, as MeshLab's filters (pymeshlab).
@@ -13,7 +13,7 @@ from numpy.typing import NDArray
 from meshwm.attacks._meshlab import run_meshlab
 from meshwm.attacks.params import Mesh, check_options
 
-__all__ = ["simplify", "subdivide_loop", "subdivide_midpoint"]
+__all__ = ["poisson", "remesh_isotropic", "simplify", "subdivide_loop", "subdivide_midpoint"]
 
 
 def simplify(
@@ -83,3 +83,30 @@ def subdivide_loop(
             loopweight="Loop", iterations=n, threshold=pymeshlab.PureValue(0.0)
         ),
     )
+
+
+def remesh_isotropic(
+    vertices: NDArray, faces: NDArray, *, seed: int = 0, iterations: int = 3
+) -> Mesh:
+    """Isotropic remeshing (MeshLab ``meshing_isotropic_explicit_remeshing``), ``iterations``
+    rounds at MeshLab's default target edge length (1 % of the diagonal): every vertex is new.
+    ``seed`` is ignored.
+    """
+    n = check_options("remesh_isotropic", iterations=iterations)["iterations"]
+    return run_meshlab(
+        vertices, faces, lambda ms: ms.meshing_isotropic_explicit_remeshing(iterations=n)
+    )
+
+
+def poisson(vertices: NDArray, faces: NDArray, *, seed: int = 0, depth: int = 8) -> Mesh:
+    """Re-extraction through an implicit surface: screened Poisson reconstruction (MeshLab
+    ``generate_surface_reconstruction_screened_poisson``, octree ``depth``) from the vertices
+    and their area-weighted normals.  ``seed`` is ignored.
+    """
+    d = check_options("poisson", depth=depth)["depth"]
+
+    def apply(ms: pymeshlab.MeshSet) -> None:
+        ms.compute_normal_per_vertex(weightmode="By Area")
+        ms.generate_surface_reconstruction_screened_poisson(depth=d, preclean=True)
+
+    return run_meshlab(vertices, faces, apply)
