@@ -296,7 +296,12 @@ def _polish(
     cross = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
     length = np.linalg.norm(cross, axis=1)
     usable = length > 0
-    usable &= ~igl.on_boundary(f)[0]  # a crop's reference points snap to the cut: skip them
+    # A crop's reference points snap to the cut: skip the faces that touch the boundary.
+    edge_on_boundary = np.asarray(igl.on_boundary(f)[1], dtype=bool)  # edge k is opposite f[:, k]
+    rim = np.zeros(len(v), dtype=bool)
+    for k in range(3):
+        rim[f[edge_on_boundary[:, k]][:, [(k + 1) % 3, (k + 2) % 3]].ravel()] = True
+    usable &= ~rim[f].any(axis=1)
     normal = cross / np.maximum(length, np.finfo(float).tiny)[:, None]
     tree = igl.AABB()
     tree.init(v, f)
@@ -348,6 +353,8 @@ _FLIPS = np.array([np.diag(d) for d in ((1, 1, 1), (-1, -1, 1), (-1, 1, -1), (1,
 _SPREAD = 72
 #: Poses from the coarse search refined on the full reference.
 _REFINED = 3
+#: ... those whose coarse residual is within this factor of the best one.
+_CLOSE = 1.5
 #: A refined pose with at least this overlap ends the search early.
 _GOOD_OVERLAP = 0.97
 
@@ -396,9 +403,10 @@ def register(
        image's does not bias the frame) under the four proper sign flips of the axes.  Each
        runs 15 iterations of trimmed (closest 80 %) point-to-point ICP with Umeyama's
        similarity (doi:10.1109/34.88573) on 400 samples against ~6000 reference points.
-    2. *Refinement* of the best three on 3000 samples and all reference points: 8 trimmed
-       point-to-point iterations, then 8 linearised point-to-plane steps (rotation, scale and
-       translation: 7 unknowns) on the reference's normals, keeping the samples whose nearest
+    2. *Refinement* of the best three (those within 1.5 times the best coarse residual) on
+       3000 samples and all reference points: 8 trimmed point-to-point iterations, then 8
+       linearised point-to-plane steps (rotation, scale and translation: 7 unknowns) on the
+       reference's normals, keeping the samples whose nearest
        reference point is within ``max(3 × median, 1.5 × spacing)``.  Received samples are
        matched to reference points, not the other way round, so a received mesh covering
        part of the surface (a crop) fits as well as a whole one.  If no refined pose has 97 %
@@ -407,11 +415,12 @@ def register(
        axes).  The pose with the smallest RMS distance of its closest 90 % of samples wins.
     3. *Polish.*  Up to 20 000 reference points are projected onto the received surface
        itself (exact closest points, libigl AABB tree); those within the gate, and not on a
-       boundary face (where the points a crop removed snap to the cut), drive point-to-plane
-       steps on the received faces' normals until the step is below 1e-10.  No sampling
-       bias is left: an unattacked or midpoint-subdivided mesh registers to rounding
-       (~1e-14 of the diagonal).  A decimated or Loop-subdivided surface is a different
-       surface; its best-fit similarity is off by a few 1e-4 of the diagonal at most.
+       face touching the boundary (where the points a crop removed snap to the cut), drive
+       point-to-plane steps on the received faces' normals until the step is below 1e-10.
+       No sampling bias is left: an unattacked, cropped or midpoint-subdivided mesh
+       registers to rounding (~1e-14 of the diagonal).  A decimated or Loop-subdivided
+       surface is a different surface; its best-fit similarity is off by a few 1e-4 of the
+       diagonal at most.
 
     The scale stays within a factor 1.8 of the RMS-radius ratio during stages 1-2 (a crop moves
     the ratio less; this prevents ICP from shrinking the mesh onto a small patch).
@@ -457,7 +466,10 @@ def register(
     hypotheses = 0
     for rotations in (ref.axes @ _FLIPS @ axes.T, _spread_rotations(_SPREAD)):
         hypotheses += len(rotations)
-        for _, start in coarse(rotations)[:_REFINED]:
+        found = coarse(rotations)
+        for score, start in found[:_REFINED]:
+            if score > _CLOSE * found[0][0]:
+                break
             pose, trimmed = _refine(refine_x, ref, start, scale_guess)
             candidates.append((trimmed, pose))
         best = min(candidates, key=lambda item: item[0])[1]
