@@ -57,8 +57,10 @@ _POLISH_STEPS = 20
 _POLISH_POINTS = 20000
 #: Reference points in the coarse search's tree.
 _COARSE_REFERENCE = 6000
-#: Neighbours for the reference's normals and local spacing.
+#: Neighbours for the reference's normals and its area per point.
 _NEIGHBOURS = 10
+#: Reference points the spacing and the frame are measured on.
+_SUBSET = 20000
 #: The scale may move this far (factor) from the RMS-radius estimate: a crop moves it less.
 _SCALE_RANGE = 1.8
 
@@ -100,7 +102,8 @@ class Registration(NamedTuple):
 
 
 class _Reference(NamedTuple):
-    """The reference points prepared once: finite points, unit normals, trees, frame."""
+    """The reference points prepared once: finite points, unit normals (NaN: not made yet),
+    trees, spacing, frame."""
 
     points: NDArray[np.float64]
     normals: NDArray[np.float64]
@@ -140,13 +143,12 @@ def _prepare(reference_points: NDArray, reference_normals: NDArray | None) -> _R
         )
     points = p[finite]
     tree = cKDTree(points)
-    distance, neighbour = tree.query(points, k=_NEIGHBOURS)
-    spacing = float(np.median(distance[:, 1]))
+    # Spacing and frame from at most _SUBSET points (a 512² geometry image has 262 144).
+    subset = points[:: max(1, len(points) // _SUBSET)]
+    spacing = float(np.median(tree.query(subset, k=2)[0][:, 1]))
     if not spacing > 0:
         raise MeshError("reference_points are (nearly all) coincident")
-    # Normals: the given ones where finite and non-zero, else the least principal axis of
-    # the point's neighbourhood.
-    normals = np.full_like(points, np.nan)
+    normals = np.full_like(points, np.nan)  # NaN: made from the neighbours when first needed
     if reference_normals is not None:
         given = np.asarray(reference_normals, dtype=np.float64)
         if given.size != p.size:
@@ -158,14 +160,9 @@ def _prepare(reference_points: NDArray, reference_normals: NDArray | None) -> _R
         length = np.linalg.norm(given, axis=1)
         good = np.isfinite(length) & (length > 0)
         normals[good] = given[good] / length[good, None]
-    todo = ~np.isfinite(normals).all(axis=1)
-    if todo.any():
-        local = points[neighbour[todo]]
-        local = local - local.mean(axis=1, keepdims=True)
-        _, vectors = np.linalg.eigh(np.einsum("pki,pkj->pij", local, local))
-        normals[todo] = vectors[:, :, 0]
     # Area per point ~ squared distance to the k-th neighbour: a density-compensated frame.
-    centre, axes, radius = _frame(points, distance[:, -1] ** 2 + spacing**2)
+    reach = cKDTree(subset).query(subset, k=_NEIGHBOURS)[0][:, -1]
+    centre, axes, radius = _frame(subset, reach**2 + float(np.median(reach)) ** 2)
     step = max(1, len(points) // _COARSE_REFERENCE)
     return _Reference(
         points=points,
@@ -179,6 +176,18 @@ def _prepare(reference_points: NDArray, reference_normals: NDArray | None) -> _R
         axes=axes,
         radius=radius,
     )
+
+
+def _normals_at(ref: _Reference, index: NDArray[np.intp]) -> NDArray[np.float64]:
+    """The reference normals at ``index``; those not given are the least principal axis of
+    the point's neighbourhood, computed once and kept in ``ref.normals``."""
+    todo = np.unique(index[~np.isfinite(ref.normals[index, 0])])
+    if len(todo):
+        local = ref.points[ref.tree.query(ref.points[todo], k=_NEIGHBOURS)[1]]
+        local = local - local.mean(axis=1, keepdims=True)
+        ref.normals[todo] = np.linalg.eigh(np.einsum("pki,pkj->pij", local, local))[1][:, :, 0]
+    result: NDArray[np.float64] = ref.normals[index]
+    return result
 
 
 def _umeyama(
@@ -277,7 +286,7 @@ def _refine(
         distance, index = ref.tree.query(y)
         inlier = _gate(distance, ref.spacing)
         index = index[inlier]
-        s, r, t = _point_to_plane_step(y[inlier], ref.points[index], ref.normals[index])
+        s, r, t = _point_to_plane_step(y[inlier], ref.points[index], _normals_at(ref, index))
         pose = _clamp(
             _Pose((1 + s) * pose.scale, r @ pose.rotation, (1 + s) * pose.translation @ r.T + t),
             scale_guess,
