@@ -352,7 +352,10 @@ def _polish(
         query = ((p - pose.translation) @ pose.rotation) / pose.scale
         squared, face, closest = tree.squared_distance(v, f, query)
         distance = pose.scale * np.sqrt(squared)
-        keep = _gate(distance, ref.spacing) & usable[face]
+        # Gated on the residuals alone (no spacing floor): a point the crop removed can lie
+        # within a spacing of another part of the surface (a thin feature, a fold).
+        keep = usable[face]
+        keep &= distance <= 3.0 * float(np.median(distance[keep])) if keep.any() else keep
         if keep.sum() < 7:
             break
         y = pose.scale * closest[keep] @ pose.rotation.T + pose.translation
@@ -462,13 +465,13 @@ def register(
        depend on the received pose) go through stages 1-2: a crop turns the principal axes.
        The pose with the smallest RMS distance of its closest 90 % of samples wins.
     3. *Polish.*  Up to 20 000 reference points are projected onto the received surface
-       itself (exact closest points, libigl AABB tree); those within the gate, and not on a
-       face touching the boundary (where the points a crop removed snap to the cut), drive
-       point-to-plane steps on the received faces' normals until the step is below 1e-10.
-       No sampling bias is left: an unattacked, cropped or midpoint-subdivided mesh
-       registers to rounding (~1e-14 of the diagonal).  A decimated or Loop-subdivided
-       surface is a different surface; its best-fit similarity is off by a few 1e-4 of the
-       diagonal at most.
+       itself (exact closest points, libigl AABB tree); those within 3 × their median
+       distance, and not on a face touching the boundary (where the points a crop removed
+       snap to the cut), drive point-to-plane steps on the received faces' normals until
+       the step is below 1e-10.  No sampling bias is left: an unattacked, cropped or
+       midpoint-subdivided mesh registers to rounding (~1e-14 of the diagonal).  A decimated
+       or Loop-subdivided surface is a different surface; its best-fit similarity is off by
+       a few 1e-4 of the diagonal at most.
 
     The scale stays within a factor 1.8 of the RMS-radius ratio during stages 1-2 (a crop moves
     the ratio less; this prevents ICP from shrinking the mesh onto a small patch).
