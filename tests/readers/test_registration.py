@@ -192,6 +192,20 @@ def test_a_geometry_image_with_missing_samples_is_a_reference():
     assert 0.5 < fit.overlap < 0.95
 
 
+@needs_dev
+@pytest.mark.slow
+def test_crops_against_a_geometry_image(dev_meshes):
+    """cow (long, thin, nearly symmetric) against its N = 128 geometry image, eight crops of
+    30 %: crops 1 and 6 once ended upside down (point-to-point search only)."""
+    v, f = dev_meshes["cow"]
+    gim = mesh_to_geometry_image(v, f, size=128).gim
+    for seed in range(8):
+        va, fa = apply_attack("crop", v, f, seed=seed, fraction=0.3)
+        s, r, t = random_similarity(v, 6777 + seed)
+        fit = register(s * va @ r.T + t, fa, gim)
+        assert pose_error(fit, s * va @ r.T + t, va, _diagonal(v)) < 1e-10, seed
+
+
 def test_registration_is_deterministic():
     v, f = read_mesh(data.path("spot"))
     reference = surface_points(v, f, 5000)
