@@ -45,11 +45,11 @@ ATTACKS = {
     "crop30": ("crop", {"fraction": 0.3}),
     "noise": ("noise", {"amplitude": 0.001}),
 }
-#: Largest pose error (fraction of the diagonal) per attack: measured maxima on the four meshes
-#: (``scripts/check_registration.py``) with a margin.  The same surface (unattacked, midpoint,
-#: crop) registers to rounding (measured ≤ 3e-14); a decimated or Loop-subdivided surface is
-#: another surface, whose best-fit similarity moves (measured: simplify 50 % ≤ 6e-5, 30 %
-#: ≤ 2e-4, Loop ≤ 4.3e-4 on spot, whose surface Loop shrinks by ~1e-3), and noise ≤ 2e-5.
+#: Largest pose error (fraction of the diagonal) per attack: the measured maxima on the four
+#: meshes with a margin.  The same surface (unattacked, midpoint-subdivided, cropped) registers
+#: to rounding (measured ≤ 2e-14); a decimated or Loop-subdivided surface is another surface,
+#: whose best-fit similarity moves (measured: simplify 50 % ≤ 4.9e-5, 30 % ≤ 1.9e-4, Loop
+#: ≤ 2.9e-4 on spot, whose surface Loop shrinks), and 0.1 % noise ≤ 2.0e-5.
 POSE_TOLERANCE = {
     "none": 1e-10,
     "subdivide_midpoint": 1e-10,
