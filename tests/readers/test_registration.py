@@ -12,6 +12,7 @@ bounding-box diagonal.  ``scripts/check_registration.py`` prints the same figure
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import igl
 import numpy as np
@@ -37,7 +38,7 @@ needs_dev = pytest.mark.skipif(not DEV.is_dir(), reason="../shared/meshes is not
 #: The meshes registered (igea decimated to 20 000 faces for speed).
 MESHES = ["fandisk", "spot", "kitten", "igea"]
 #: Attacks on the received mesh: name -> (attack, options).
-ATTACKS = {
+ATTACKS: dict[str, tuple[str, dict[str, Any]]] = {
     "simplify50": ("simplify", {"keep_fraction": 0.5}),
     "simplify30": ("simplify", {"keep_fraction": 0.3}),
     "subdivide_midpoint": ("subdivide_midpoint", {}),
