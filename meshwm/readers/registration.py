@@ -82,8 +82,9 @@ class Registration(NamedTuple):
         the original surface (re-tessellated without moving it, or cropped), the surface's
         own deviation otherwise (a few 1e-4 for a decimation to 30 %).
     overlap : float
-        Fraction of the received samples whose nearest reference point is within
-        ``3 * spacing`` (the reference's median neighbour spacing) after registration.
+        Fraction of the received samples whose nearest reference point is within 3 local
+        spacings after registration (that point's distance to its own nearest neighbour, at
+        least the reference's median one).
     hypotheses : int
         Initial poses tried.
     """
@@ -369,9 +370,16 @@ def _polish(
 
 
 def _overlap(x: NDArray[np.float64], ref: _Reference, pose: _Pose) -> float:
-    """Fraction of received samples within ``3 × spacing`` of a reference point."""
+    """Fraction of received samples within 3 local spacings of their nearest reference point
+    (the distance from that point to its own nearest neighbour, at least the median spacing:
+    a geometry image samples some regions far more sparsely than others)."""
     y = pose.scale * x @ pose.rotation.T + pose.translation
-    return float(np.mean(ref.tree.query(y, distance_upper_bound=3.0 * ref.spacing)[0] < np.inf))
+    distance, index = ref.tree.query(y)
+    near = np.unique(index)
+    local = np.maximum(ref.tree.query(ref.points[near], k=2)[0][:, 1], ref.spacing)
+    allowed = np.empty(len(ref.points))
+    allowed[near] = 3.0 * local
+    return float(np.mean(distance <= allowed[index]))
 
 
 def _first(item: tuple[float, _Pose]) -> float:
@@ -459,8 +467,8 @@ def register(
        reference's normals, keeping the samples whose nearest reference point is within
        ``max(3 × median, 1.5 × spacing)``.  Received samples are matched to reference
        points, not the other way round, so a received mesh covering part of the surface (a
-       crop) fits as well as a whole one.  If no refined pose has 95 % of its samples within
-       ``3 × spacing`` of the reference, 72 more initial rotations (Super-Fibonacci, spread
+       crop) fits as well as a whole one.  If no refined pose has an overlap of 95 % (see
+       :class:`Registration`), 72 more initial rotations (Super-Fibonacci, spread
        over SO(3), taken relative to the two principal frames so that the search does not
        depend on the received pose) go through stages 1-2: a crop turns the principal axes.
        The pose with the smallest RMS distance of its closest 90 % of samples wins.
