@@ -40,6 +40,7 @@ from meshwm.readers.descriptor import (
 
 __all__ = [
     "DESCRIPTOR_LENGTH",
+    "POSE_HYPOTHESES",
     "Registration",
     "descriptor_distance",
     "register",
@@ -407,6 +408,10 @@ def _spread_rotations(count: int) -> NDArray[np.float64]:
 _FLIPS = np.array([np.diag(d) for d in ((1, 1, 1), (-1, -1, 1), (-1, 1, -1), (1, -1, -1))])
 #: Extra rotations tried when the principal frames do not give a full overlap (crops).
 _SPREAD = 72
+#: The most initial poses :func:`register` tries (its ``hypotheses`` never exceeds it): the
+#: principal frames' four proper sign flips, then the spread over SO(3).  A caller that
+#: decides on the pose counts them all.
+POSE_HYPOTHESES = len(_FLIPS) + _SPREAD
 #: Poses from the coarse search refined on the full reference.
 _REFINED = 3
 #: ... those whose coarse residual is within this factor of the best one.

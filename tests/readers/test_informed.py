@@ -1,0 +1,137 @@
+"""The informed reader: references, sealed signatures, and copies told apart after attacks."""
+
+from __future__ import annotations
+
+import hashlib
+
+import numpy as np
+import pytest
+
+from meshwm.attacks import apply_attack
+from meshwm.readers.informed import (
+    Reference,
+    copy_signature,
+    correlate,
+    identify,
+    make_reference,
+    received_offsets,
+    seal_signature,
+    unseal_signature,
+)
+from meshwm.watermark import embed
+
+IDS = ("0123456789abcdef", "fedcba9876543210")
+#: z of a copy in a clean read after these attacks on spot is 10-40; an unmarked mesh's is
+#: N(0, 1).  The tests ask for a wide margin either way.
+PRESENT_Z = 6.0
+ABSENT_Z = 4.5
+
+
+@pytest.fixture(scope="module")
+def spot_copies(spot_mesh):
+    v, f = spot_mesh
+    reference = make_reference(v, f, max_faces=10**6)
+    copies = [embed(v, f, key="k", ident=bytes.fromhex(i), distances=False).vertices for i in IDS]
+    signatures = [copy_signature(reference, c, f) for c in copies]
+    return v, f, reference, copies, signatures
+
+
+def test_reference_round_trip_is_exact(spot_copies):
+    _, _, reference, _, _ = spot_copies
+    back = Reference.from_bytes(reference.to_bytes())
+    assert back.n == reference.n and back.diagonal == reference.diagonal
+    assert np.array_equal(back.cells, reference.cells)
+    assert np.array_equal(back.points, reference.points.astype(np.float32).astype(np.float64))
+    assert np.allclose(back.normals, reference.normals, atol=1e-6)
+
+
+@pytest.mark.parametrize("data", [b"", b"not a reference", b"PK\x03\x04" + bytes(40)])
+def test_reference_from_garbage_is_refused(data):
+    with pytest.raises(ValueError, match="not a reference"):
+        Reference.from_bytes(data)
+
+
+def test_signature_unseals_only_with_the_key(spot_copies):
+    _, _, reference, _, signatures = spot_copies
+    sig = signatures[0].astype(np.float64)
+    blob = seal_signature(sig, reference, key="k")
+    assert b"k" * 4 not in blob
+    back = unseal_signature(blob, reference, key="k")
+    assert np.allclose(back, sig, atol=1e-3 * np.abs(sig).max())
+    wrong = unseal_signature(blob, reference, key="another key")
+    assert abs(np.corrcoef(wrong, sig)[0, 1]) < 0.05
+    with pytest.raises(ValueError, match="does not fit"):
+        unseal_signature(blob[:-2], reference, key="k")
+
+
+def test_unmarked_mesh_offsets_are_zero(spot_copies):
+    v, f, reference, _, _ = spot_copies
+    h = received_offsets(reference, v, f)
+    assert np.all(np.isfinite(h))
+    assert np.abs(h).max() < 1e-9 * reference.diagonal
+
+
+ATTACKS = [
+    ("none", {}),
+    ("simplify", {"keep_fraction": 0.5}),
+    ("subdivide_midpoint", {}),
+    ("subdivide_loop", {}),
+    ("remesh_isotropic", {}),
+    ("noise", {"amplitude": 0.001}),
+    ("crop", {"fraction": 0.3}),
+]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(("attack", "options"), ATTACKS)
+@pytest.mark.parametrize("which", [0, 1])
+def test_copies_are_told_apart_after_attacks(spot_copies, attack, options, which):
+    """The right copy wins, significantly, and against the other copy's signature too."""
+    _v, f, reference, copies, signatures = spot_copies
+    if attack == "none":
+        vv, ff = copies[which], f
+    else:
+        vv, ff = apply_attack(attack, copies[which], f, seed=3, **options)
+    h = received_offsets(reference, vv, ff)
+    best, score, versus = identify(h, signatures, reference)
+    assert best == which
+    assert score.z > PRESENT_Z and versus is not None and versus.z > PRESENT_Z / 2
+    assert score.decoys > 10_000
+
+
+@pytest.mark.parametrize("attack", ["none", "simplify", "remesh_isotropic"])
+def test_unmarked_mesh_does_not_correlate(spot_copies, attack):
+    v, f, reference, _, signatures = spot_copies
+    vv, ff = (v, f) if attack == "none" else apply_attack(attack, v, f, seed=1)
+    h = received_offsets(reference, vv, ff)
+    for sig in signatures:
+        assert correlate(h, sig, reference).z < ABSENT_Z
+
+
+def test_z_is_standard_normal_under_the_null(spot_copies):
+    """Smooth random fields (the offsets' kind of noise) against a signature: z ~ N(0, 1)."""
+    from scipy import ndimage
+
+    _, _, reference, _, signatures = spot_copies
+    zs = []
+    for trial in range(200):
+        seed = int.from_bytes(hashlib.sha256(f"null/{trial}".encode()).digest()[:8], "little")
+        field = np.random.default_rng(seed).standard_normal((reference.n, reference.n))
+        field = ndimage.gaussian_filter(field, 1.5, mode="wrap").ravel()[reference.cells]
+        zs.append(correlate(field, signatures[trial % 2], reference).z)
+    zs = np.array(zs)
+    assert abs(zs.mean()) < 0.3 and 0.75 < zs.std() < 1.3
+    assert np.abs(zs).max() < 4.5
+
+
+def test_cropped_away_points_are_missing(spot_copies):
+    _v, f, reference, copies, _ = spot_copies
+    vv, ff = apply_attack("crop", copies[0], f, seed=1, fraction=0.3)
+    h = received_offsets(reference, vv, ff)
+    assert 0.4 < np.isfinite(h).mean() < 0.95
+
+
+def test_identify_needs_signatures(spot_copies):
+    _, _, reference, _, _ = spot_copies
+    with pytest.raises(ValueError, match="no signatures"):
+        identify(np.zeros(len(reference.cells)), [], reference)
