@@ -37,6 +37,7 @@ from meshwm.apps.cli import (
     registry,
     remesh,
     render,
+    trace,
     verify,
 )
 from meshwm.apps.cli.output import EXIT_ERROR
@@ -61,7 +62,19 @@ class Command(Protocol):
 #: Command name -> its module, in the order ``meshwm --help`` lists them.
 COMMANDS: dict[str, Command] = {
     module.NAME: module
-    for module in (remesh, embed, extract, verify, attack, render, demo, bench, registry, docs)
+    for module in (
+        remesh,
+        embed,
+        extract,
+        verify,
+        trace,
+        attack,
+        render,
+        demo,
+        bench,
+        registry,
+        docs,
+    )
 }
 
 

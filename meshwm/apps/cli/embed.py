@@ -22,6 +22,7 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers only
     from numpy.typing import NDArray
 
     from meshwm.apps.progress import Status
+    from meshwm.apps.tracing import MarkedMesh
     from meshwm.params import WatermarkParams
 
 __all__ = ["HELP", "NAME", "add_parser", "run"]
@@ -84,6 +85,15 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
         help="write the geometry image's N×N grid mesh instead of the input's meshes (--size)",
     )
     options.add_watermark_options(parser, size=True)
+    parser.add_argument(
+        "--registry",
+        metavar="DB",
+        help="record the asset and this copy (never the key) in a registry: a file (SQLite, "
+        "made if missing) or a PostgreSQL URL; trace and the informed reader use it",
+    )
+    parser.add_argument(
+        "--recipient", metavar="TEXT", help="who receives this copy (recorded with --registry)"
+    )
     parser.add_argument("--json", action="store_true", help="print the report as JSON")
     parser.add_argument(
         "--force", action="store_true", help="allow the output to overwrite the input file"
@@ -111,12 +121,26 @@ def run(args: argparse.Namespace) -> int:
         mark = (
             load_mark(args.mark, size=args.mark_size) if args.mark else default_mark(args.mark_size)
         )
+    if args.recipient is not None and not args.registry:
+        raise ValueError("--recipient is recorded in a registry: give --registry too")
+    registry = None
+    if args.registry:
+        from meshwm.apps.registry import Registry
+
+        registry = Registry.open(args.registry)  # a bad registry fails before any work
     started = time.perf_counter()
-    with Status(sys.stderr) as status:
-        if args.grid:
-            report = _embed_grid(args, key, params, mark, status)
-        else:
-            report = _embed_kept(args, key, params, mark, status)
+    try:
+        with Status(sys.stderr) as status:
+            if args.grid:
+                report, marked = _embed_grid(args, key, params, mark, status)
+            else:
+                report, marked = _embed_kept(args, key, params, mark, status)
+            if registry is not None:
+                status.stage(f"recording in {registry.name}")
+                report["registry"] = _record(args, registry, key, params, marked, report)
+    finally:
+        if registry is not None:
+            registry.close()
     report["seconds"] = round(time.perf_counter() - started, 3)
     if args.json:
         print(json.dumps(_json_ready(report), indent=2, sort_keys=True))
@@ -140,7 +164,7 @@ def _embed_grid(
     params: WatermarkParams,
     mark: NDArray | None,
     status: Status,
-) -> dict[str, Any]:
+) -> tuple[dict[str, Any], list[MarkedMesh]]:
     """The paper's output: one mesh read bare, remeshed to the N×N grid, marked."""
     from meshwm.mesh.io import check_output, read_mesh, write_mesh
     from meshwm.watermark import embed
@@ -166,7 +190,19 @@ def _embed_grid(
     write_mesh(
         args.output, result.vertices, result.faces, overwrite_input=args.input, force=args.force
     )
-    return {"input": str(args.input), "output": str(args.output), **result.report}
+    from meshwm.apps.tracing import MarkedMesh, mark_payload
+
+    payload = mark_payload(mark, args.ident)
+    one = MarkedMesh(
+        args.input.name,
+        vertices,
+        faces,
+        result.vertices,
+        result.faces,
+        payload,
+        int(result.report["n"]),
+    )
+    return {"input": str(args.input), "output": str(args.output), **result.report}, [one]
 
 
 def _embed_kept(
@@ -175,7 +211,7 @@ def _embed_kept(
     params: WatermarkParams,
     mark: NDArray | None,
     status: Status,
-) -> dict[str, Any]:
+) -> tuple[dict[str, Any], list[MarkedMesh]]:
     """Every mesh of the file marked in place; the file written whole."""
     from dataclasses import asdict
 
@@ -221,7 +257,67 @@ def _embed_kept(
     }
     if len(marked.meshes) == 1:  # one mesh: its figures at the top, as for a bare mesh
         report.update({k: v for k, v in marked.meshes[0].items() if k != "name"})
-    return report
+    return report, _marked_meshes(args, asset, marked, mark)
+
+
+def _marked_meshes(
+    args: argparse.Namespace, asset: Any, marked: Any, mark: NDArray | None
+) -> list[MarkedMesh]:
+    """The marked meshes of a kept embed, before and after, for the registry."""
+    from meshwm.apps.tracing import MarkedMesh, mark_payload
+
+    out = []
+    several = len(asset.meshes) > 1
+    for k, row in enumerate(marked.meshes):
+        if not row.get("marked"):
+            continue
+        mesh = asset.meshes[k]
+        name = f"{args.input.name}#{mesh.name}" if several else args.input.name
+        payload = row["id"] if "id" in row else mark_payload(mark)
+        out.append(
+            MarkedMesh(
+                name,
+                asset.vertices(k),
+                mesh.faces,
+                marked.asset.vertices(k),
+                mesh.faces,
+                payload,
+                int(row["n"]),
+            )
+        )
+    return out
+
+
+def _record(
+    args: argparse.Namespace,
+    registry: Any,
+    key: str | bytes,
+    params: WatermarkParams,
+    marked: list[MarkedMesh],
+    report: dict[str, Any],
+) -> list[dict[str, int]]:
+    """Record the copy; if that fails, the output is removed (no unrecorded copy goes out)."""
+    import hashlib
+
+    from meshwm.apps.tracing import record_copies
+
+    try:
+        digest = hashlib.sha256(args.output.read_bytes()).hexdigest()
+        recorded = record_copies(
+            registry,
+            marked,
+            key=key,
+            recipient=args.recipient,
+            output_name=args.output.name,
+            output_sha256=digest,
+            params={"profile": params.profile, "mode": report.get("mode", "kept")},
+            max_faces=args.max_faces,
+        )
+    except BaseException:
+        if args.output.resolve() != args.input.resolve():  # never the input (--force)
+            args.output.unlink(missing_ok=True)
+        raise
+    return [{"asset_id": a, "copy_id": c} for a, c in recorded]
 
 
 def _summary_line(summary: dict[str, Any]) -> str:

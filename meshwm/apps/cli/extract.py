@@ -44,6 +44,12 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
         help=f"side of the square mark ({options.DEFAULT_MARK_SIZE})",
     )
     parser.add_argument("--mark", type=Path, help="the original mark, to report BER and corr2")
+    parser.add_argument(
+        "--registry",
+        metavar="DB",
+        help="a registry (file or PostgreSQL URL): a mesh from which no id reads blind is "
+        "traced to a registered copy by the informed reader, which the report names",
+    )
     options.add_watermark_options(parser, size=False)
     parser.add_argument("--json", action="store_true", help="print the report as JSON")
     parser.set_defaults(run=run)
@@ -81,6 +87,8 @@ def run(args: argparse.Namespace) -> int:
             max_faces=args.max_faces,
             progress=status.stage,
         )
+        if args.registry:
+            _informed(asset, rows, key, args, status.stage)
     if all(row["kind"] is None for row in rows):
         raise ValueError(f"{args.input}: " + "; ".join(row["reason"] for row in rows))
     several = len(rows) > 1
@@ -104,6 +112,37 @@ def run(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def _informed(
+    asset: Any, rows: list[dict[str, Any]], key: str | bytes, args: argparse.Namespace, stage: Any
+) -> None:
+    """Rows without an id read blind: the informed reader (the registry's copies)."""
+    from meshwm.apps.registry import Registry
+    from meshwm.apps.tracing import trace_mesh
+
+    with Registry.open(args.registry, create=False) as registry:
+        for k, row in enumerate(rows):
+            if row["kind"] == "id" or asset.meshes[k].reason is not None:
+                continue
+            stage(f"informed reading of {asset.meshes[k].name}")
+            found = trace_mesh(
+                asset.vertices(k),
+                asset.meshes[k].faces,
+                key=key,
+                registry=registry,
+                fpr=1e-6,
+                max_faces=args.max_faces,
+            )
+            row["informed"] = {
+                name: found.get(name)
+                for name in ("detected", "asset", "copy_id", "id", "recipient", "p_value")
+            }
+            row["informed"]["hypotheses"] = found["hypotheses"]
+            payload = found.get("id")
+            if found["detected"] and not str(payload).startswith("mark:"):
+                row.update(kind="id", id=payload, reader="informed (registry)")
+                row.pop("reason", None)
+
+
 def _describe(row: dict[str, Any], args: argparse.Namespace) -> str:
     from meshwm.message.payload import format_id
 
@@ -111,6 +150,13 @@ def _describe(row: dict[str, Any], args: argparse.Namespace) -> str:
         return f"nothing read ({row['reason']})"
     if row["kind"] == "id":
         text = f"id {format_id(row['id'])}"
+        if row.get("reader") == "informed (registry)":
+            found = row["informed"]
+            text += (
+                f" (informed reader, registry: asset {found['asset']!r}, copy "
+                f"#{found['copy_id']}, p-value {found['p_value']:.3g} over "
+                f"{found['hypotheses']} hypotheses)"
+            )
         if args.output is not None:
             text += "; this mesh carries an id, not a mark: no mark image written"
         return text

@@ -78,6 +78,12 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
     parser.add_argument(
         "--jsonl", action="store_true", help="one JSON line per file, then a summary line"
     )
+    parser.add_argument(
+        "--registry",
+        metavar="DB",
+        help="a registry (file or PostgreSQL URL): a mesh the blind readers miss is traced "
+        "to a registered copy by the informed reader, which the report names",
+    )
     options.add_watermark_options(parser, size=False)
     parser.add_argument("--json", action="store_true", help="print the result as JSON")
     parser.set_defaults(run=run)
@@ -105,6 +111,7 @@ def run(args: argparse.Namespace) -> int:
         any_id=args.any_id,
         fpr=args.fpr,
         max_faces=args.max_faces,
+        registry=args.registry,
     )
     from meshwm.message.payload import format_id
 
@@ -177,6 +184,13 @@ def _verdict(row: dict[str, Any], what: str) -> str:
         details.append(f"BER {row['ber']:.4f}, p-value {row['p_value']:.3g}")
     if row.get("reason"):
         details.append(row["reason"])
+    if row.get("reader") == "informed (registry)":
+        found = row.get("informed") or {}
+        details.append(
+            f"informed reader (registry): asset {found.get('asset')!r}, copy "
+            f"#{found.get('copy_id')} for {found.get('recipient') or 'no recipient recorded'}, "
+            f"p-value {row['p_value']:.3g} over {row['hypotheses']} hypotheses"
+        )
     text = f"{what} {'present' if row['detected'] else 'absent'}"
     text += f" ({'; '.join(details)})" if details else ""
     return text + (f": {row['note']}" if row.get("note") else "")

@@ -144,7 +144,8 @@ class AssetEntry:
     name : str
         The input's file name, as the studio knows it.
     input_sha256 : str
-        SHA-256 of the input file, 64 hex digits (stored lowercase); the asset's identity.
+        SHA-256 of the input (``embed --registry``: of its geometry), 64 hex digits (stored
+        lowercase); the asset's identity.
     vertices, faces : int
         Size of the input, >= 0.
     descriptor : (d,) float64 array

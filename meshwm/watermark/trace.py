@@ -1,0 +1,241 @@
+"""Trace a received mesh to a registered copy: which asset, which copy, how sure.
+
+Composition only: the registry's shape descriptors pick the candidate assets
+(:func:`meshwm.readers.registration.shape_descriptor`), each candidate's reference gives the
+pose (:func:`meshwm.readers.registration.register`) and the received offsets
+(:func:`meshwm.readers.informed.received_offsets`), and each copy's signature, unsealed with the
+key, is tested against them (:func:`meshwm.readers.informed.identify`).  Candidates are tried
+in descriptor order and the first that identifies a copy stops the search; the decision counts
+every hypothesis that could have been tried (every candidate × pose × copy), so stopping early
+never raises the false-positive rate.
+
+The registry is anything with the methods of :class:`RegistryView` (the storage lives in
+:mod:`meshwm.apps.registry`; this module does not import it).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Mapping, Sequence
+from typing import Any, NamedTuple, Protocol
+
+import numpy as np
+from numpy.typing import NDArray
+
+from meshwm._validate import DEFAULT_MAX_FACES, check_mesh
+from meshwm.detect import DEFAULT_FPR, is_detected
+from meshwm.readers.informed import (
+    REFERENCE_SIZE,
+    Reference,
+    identify,
+    received_offsets,
+    unseal_signature,
+)
+from meshwm.readers.registration import descriptor_distance, register, shape_descriptor
+
+__all__ = ["CANDIDATES", "MAX_REGISTRATION_RMS", "RegistryView", "Traced", "Tracer", "trace"]
+
+#: Candidate assets tried, nearest descriptors first.
+CANDIDATES = 10
+#: A pose whose residual (over the reference's diagonal) is larger than this is not the asset.
+MAX_REGISTRATION_RMS = 0.01
+
+
+class _Copy(Protocol):
+    id: int
+    payload: str
+    recipient: str | None
+    signature: bytes | None
+
+
+class _Asset(Protocol):
+    id: int
+    name: str
+
+
+class RegistryView(Protocol):
+    """What tracing reads from a registry."""
+
+    def descriptors(self) -> tuple[NDArray[np.int64], NDArray[np.float64]]: ...
+
+    def references(self, asset_id: int) -> Mapping[int, bytes]: ...
+
+    def copies(self, asset_id: int | None = None) -> Sequence[Any]: ...
+
+    def asset(self, asset_id: int) -> Any: ...
+
+
+class Traced(NamedTuple):
+    """Result of :func:`trace`.
+
+    Attributes
+    ----------
+    detected : bool
+        A registered copy was identified at the false-positive rate asked for.
+    report : dict
+        ``reader`` ("informed"), ``asset_id``, ``asset``, ``copy_id``, ``id`` (the copy's
+        payload), ``recipient``, ``p_value``, ``hypotheses``, ``z``, ``versus_z`` (the best copy
+        against the runner-up), ``present`` (fraction of reference points the received surface
+        covers), ``registration_rms``, ``candidates`` (what was tried, nearest first) and
+        ``seconds``.
+    """
+
+    detected: bool
+    report: dict[str, Any]
+
+
+class _Candidate(NamedTuple):
+    asset_id: int
+    reference: Reference | None
+    offsets: NDArray[np.float64] | None
+    copies: list[Any]
+    pose_hypotheses: int
+    rms: float | None
+    note: str | None
+
+
+class Tracer:
+    """A received mesh, posed against its candidate assets once, traced with any key.
+
+    Parameters
+    ----------
+    vertices, faces : array_like
+        The received mesh (any pose, any tessellation).
+    registry : RegistryView
+    candidates : int, optional
+        How many assets (nearest shape descriptors first) may be tried.
+    max_faces : int, optional
+    """
+
+    def __init__(
+        self,
+        vertices: NDArray,
+        faces: NDArray,
+        registry: RegistryView,
+        *,
+        candidates: int = CANDIDATES,
+        max_faces: int = DEFAULT_MAX_FACES,
+    ) -> None:
+        if isinstance(candidates, bool) or not isinstance(candidates, int) or candidates < 1:
+            raise ValueError(f"candidates must be a positive integer, got {candidates!r}")
+        self._v, self._f = check_mesh(vertices, faces, max_faces=max_faces)
+        self._registry = registry
+        ids, table = registry.descriptors()
+        self._order: list[int] = []
+        if len(ids):
+            query = shape_descriptor(self._v, self._f)
+            distance = descriptor_distance(query, table)
+            self._order = [int(ids[i]) for i in np.argsort(distance, kind="stable")[:candidates]]
+        self._copies = {a: list(registry.copies(a)) for a in self._order}
+        self._posed: dict[int, _Candidate] = {}
+
+    @property
+    def hypotheses(self) -> int:
+        """Every hypothesis the tracer can test: candidates × poses × copies."""
+        from meshwm.readers.registration import POSE_HYPOTHESES
+
+        return max(1, sum(POSE_HYPOTHESES * max(1, len(c)) for c in self._copies.values()))
+
+    def _candidate(self, asset_id: int) -> _Candidate:
+        if asset_id in self._posed:
+            return self._posed[asset_id]
+        copies = [c for c in self._copies[asset_id] if getattr(c, "signature", None)]
+        blob = self._registry.references(asset_id).get(REFERENCE_SIZE)
+        cand: _Candidate
+        if blob is None or not copies:
+            cand = _Candidate(asset_id, None, None, copies, 0, None, "no reference or no copy")
+        else:
+            reference = Reference.from_bytes(blob)
+            pose = register(self._v, self._f, reference.points, reference_normals=reference.normals)
+            moved = pose.scale * self._v @ pose.rotation.T + pose.translation
+            if pose.rms > MAX_REGISTRATION_RMS:
+                note = f"no pose fits (residual {pose.rms:.2g} of the diagonal)"
+                cand = _Candidate(
+                    asset_id, reference, None, copies, pose.hypotheses, pose.rms, note
+                )
+            else:
+                offsets = received_offsets(reference, moved, self._f)
+                cand = _Candidate(
+                    asset_id, reference, offsets, copies, pose.hypotheses, pose.rms, None
+                )
+        self._posed[asset_id] = cand
+        return cand
+
+    def trace(self, *, key: str | bytes, fpr: float = DEFAULT_FPR) -> Traced:
+        """Identify the registered copy the mesh carries, with ``key``."""
+        t0 = time.perf_counter()
+        hypotheses = self.hypotheses
+        tried: list[dict[str, Any]] = []
+        best: dict[str, Any] | None = None
+        detected = False
+        for asset_id in self._order:
+            cand = self._candidate(asset_id)
+            entry: dict[str, Any] = {"asset_id": asset_id, "registration_rms": cand.rms}
+            tried.append(entry)
+            if cand.offsets is None or cand.reference is None:
+                entry["note"] = cand.note
+                continue
+            signatures = [
+                unseal_signature(c.signature, cand.reference, key=key) for c in cand.copies
+            ]
+            k, score, versus = identify(cand.offsets, signatures, cand.reference)
+            p = max(score.p_value, versus.p_value if versus is not None else 0.0)
+            entry.update(z=score.z, p_value=p)
+            found = {
+                "asset_id": asset_id,
+                "copy_id": int(cand.copies[k].id),
+                "id": cand.copies[k].payload,
+                "recipient": cand.copies[k].recipient,
+                "p_value": p,
+                "z": score.z,
+                "rho": score.rho,
+                "versus_z": None if versus is None else versus.z,
+                "present": float(np.mean(np.isfinite(cand.offsets))),
+                "registration_rms": cand.rms,
+            }
+            if best is None or p < best["p_value"]:
+                best = found
+            if is_detected(p, fpr=fpr, hypotheses=hypotheses):
+                detected = True
+                best = found
+                break
+        report: dict[str, Any] = {"reader": "informed", "registry": True}
+        if best is not None:
+            report.update(best)
+            report["asset"] = self._registry.asset(best["asset_id"]).name
+        else:
+            report.update(p_value=1.0, id=None)
+        if not detected:  # the nearest copy is named, never claimed
+            report["nearest_id"] = report.pop("id", None)
+            report["id"] = None
+        report["hypotheses"] = hypotheses
+        report["candidates"] = tried
+        report["seconds"] = time.perf_counter() - t0
+        return Traced(detected, report)
+
+
+def trace(
+    vertices: NDArray,
+    faces: NDArray,
+    *,
+    key: str | bytes,
+    registry: RegistryView,
+    fpr: float = DEFAULT_FPR,
+    candidates: int = CANDIDATES,
+    max_faces: int = DEFAULT_MAX_FACES,
+) -> Traced:
+    """Which registered asset and copy a received mesh is (the informed reader).
+
+    ``Tracer(vertices, faces, registry, ...).trace(key=key, fpr=fpr)``.
+
+    Raises
+    ------
+    MeshError
+        Unusable mesh arrays.
+    """
+    t0 = time.perf_counter()
+    out = Tracer(vertices, faces, registry, candidates=candidates, max_faces=max_faces).trace(
+        key=key, fpr=fpr
+    )
+    out.report["seconds"] = time.perf_counter() - t0
+    return out

@@ -1,0 +1,197 @@
+"""``embed --registry``, ``trace``, and ``verify``/``extract --registry``: a registered copy
+traced after re-tessellation, the key never stored, bad registries refused cleanly."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from meshwm.apps.cli import main
+from meshwm.apps.registry import Registry
+from meshwm.attacks import apply_attack
+from meshwm.mesh.io import read_mesh, write_mesh
+
+KEY = "trace-test-key-5f1c"
+IDS = ("0x0123456789abcdef", "0xfedcba9876543210")
+
+
+@pytest.fixture(scope="module")
+def registered(tmp_path_factory, assets_dir):
+    """spot sent to two recipients, kitten to one; all recorded in one SQLite registry."""
+    root = tmp_path_factory.mktemp("trace")
+    db = root / "studio.db"
+    outs = []
+    for k, (mesh, ident, who) in enumerate(
+        [("spot", IDS[0], "alice"), ("spot", IDS[1], "bob"), ("kitten", IDS[0], "carol")]
+    ):
+        out = root / f"{mesh}_{k}.ply"
+        code = main(
+            [
+                "embed",
+                str(assets_dir / f"{mesh}.ply"),
+                "-o",
+                str(out),
+                "--key",
+                KEY,
+                "--id",
+                ident,
+                "--registry",
+                str(db),
+                "--recipient",
+                who,
+                "--no-distance",
+            ]
+        )
+        assert code == 0
+        outs.append(out)
+    return root, db, outs
+
+
+def _attacked(src: Path, dst: Path, attack: str, **options) -> Path:
+    v, f = read_mesh(src)
+    v2, f2 = apply_attack("similarity", v, f, seed=7)
+    v3, f3 = apply_attack(attack, v2, f2, seed=1, **options)
+    write_mesh(dst, v3, f3)
+    return dst
+
+
+def test_the_registry_holds_assets_and_copies_never_the_key(registered):
+    root, db, _ = registered
+    with Registry.open(db, create=False) as registry:
+        assets = registry.assets()
+        assert sorted(a.copies for a in assets) == [1, 2]
+        copies = registry.copies()
+        assert [c.recipient for c in copies] == ["alice", "bob", "carol"]
+        assert all(c.signature for c in copies)
+        assert all("key" not in json.dumps(c.params).lower() for c in copies)
+    for path in root.iterdir():
+        if path.name.startswith("studio.db"):
+            assert KEY.encode() not in path.read_bytes()
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    ("attack", "options"),
+    [("simplify", {"keep_fraction": 0.5}), ("subdivide_loop", {}), ("remesh_isotropic", {})],
+)
+def test_trace_names_the_copy_after_retessellation(registered, tmp_path, capsys, attack, options):
+    _, db, outs = registered
+    received = _attacked(outs[1], tmp_path / "leak.ply", attack, **options)
+    code = main(["trace", str(received), "--key", KEY, "--registry", str(db), "--json"])
+    report = json.loads(capsys.readouterr().out)
+    assert code == 0, report
+    (mesh,) = report["meshes"]
+    assert mesh["detected"] and mesh["reader"] == "informed"
+    assert mesh["id"] == IDS[1][2:] and mesh["recipient"] == "bob"
+    assert mesh["p_value"] * mesh["hypotheses"] < 1e-6
+
+
+def test_trace_with_a_wrong_key_finds_nothing(registered, tmp_path, capsys):
+    _, db, outs = registered
+    received = _attacked(outs[0], tmp_path / "leak.ply", "simplify", keep_fraction=0.5)
+    code = main(["trace", str(received), "--key", "not the key", "--registry", str(db)])
+    out = capsys.readouterr().out
+    assert code == 1 and "NOT traced" in out
+
+
+def test_trace_of_an_unmarked_mesh_finds_nothing(registered, assets_dir, capsys):
+    _, db, _ = registered
+    code = main(["trace", str(assets_dir / "spot.ply"), "--key", KEY, "--registry", str(db)])
+    assert code == 1
+    assert "NOT traced" in capsys.readouterr().out
+
+
+def test_trace_reads_blind_first(registered, capsys):
+    _, db, outs = registered
+    code = main(["trace", str(outs[2]), "--key", KEY, "--registry", str(db), "--json"])
+    report = json.loads(capsys.readouterr().out)
+    assert code == 0
+    (mesh,) = report["meshes"]
+    assert mesh["reader"] != "informed" and mesh["id"] == IDS[0][2:]
+    assert [c["recipient"] for c in mesh["copies"]] == ["carol"]
+
+
+@pytest.mark.slow
+def test_verify_and_extract_fall_back_to_the_registry(registered, tmp_path, capsys):
+    _, db, outs = registered
+    received = _attacked(outs[0], tmp_path / "lod.ply", "simplify", keep_fraction=0.3)
+    args = ["--key", KEY]
+    assert main(["verify", str(received), "--id", IDS[0], *args]) == 1
+    capsys.readouterr()
+    assert main(["verify", str(received), "--id", IDS[0], *args, "--registry", str(db)]) == 0
+    out = capsys.readouterr().out
+    assert "present" in out and "informed reader (registry)" in out and "alice" in out
+    assert main(["verify", str(received), "--id", IDS[1], *args, "--registry", str(db)]) == 1
+    capsys.readouterr()
+    assert main(["extract", str(received), *args, "--registry", str(db), "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert report["id"] == IDS[0][2:] and report["reader"] == "informed (registry)"
+
+
+def _one_line_error(capsys) -> str:
+    captured = capsys.readouterr()
+    err = captured.err
+    assert err.startswith("meshwm: error: ") and err.count("\n") == 1, err
+    assert "Traceback" not in err
+    return err
+
+
+def test_embed_into_a_corrupt_registry_writes_nothing(tmp_path, assets_dir, capsys):
+    db = tmp_path / "broken.db"
+    db.write_bytes(b"SQLite format 3\x00" + bytes(50))
+    out = tmp_path / "out.ply"
+    spot = str(assets_dir / "spot.ply")
+    code = main(["embed", spot, "-o", str(out), "--key", KEY, "--id", "0x1", "--registry", str(db)])
+    assert code == 2
+    assert "broken.db" in _one_line_error(capsys)
+    assert not out.exists()
+
+
+def test_recipient_needs_a_registry(tmp_path, assets_dir, capsys):
+    out = tmp_path / "out.ply"
+    args = ["embed", str(assets_dir / "spot.ply"), "-o", str(out), "--key", KEY]
+    assert main([*args, "--recipient", "alice"]) == 2
+    assert "--registry" in _one_line_error(capsys)
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("kind", ["missing", "garbage"])
+def test_trace_with_a_bad_registry_is_one_line(tmp_path, assets_dir, capsys, kind):
+    db = tmp_path / "r.db"
+    if kind == "garbage":
+        db.write_bytes(np.arange(300, dtype=np.uint8).tobytes())
+    code = main(["trace", str(assets_dir / "spot.ply"), "--key", KEY, "--registry", str(db)])
+    assert code == 2
+    _one_line_error(capsys)
+    assert kind == "garbage" or not db.exists()
+
+
+@pytest.mark.slow
+def test_four_embeds_into_one_registry_at_once_lose_no_record(tmp_path, assets_dir):
+    """Four ``meshwm embed --registry`` processes started together: four copies recorded."""
+    import subprocess
+    import sys
+
+    db = tmp_path / "shared.db"
+    procs = [
+        subprocess.Popen(
+            [
+                *(sys.executable, "-m", "meshwm", "embed", str(assets_dir / "spot.ply")),
+                *("-o", str(tmp_path / f"out{k}.ply"), "--key", KEY, "--id", f"0x{k + 1:x}"),
+                *("--registry", str(db), "--recipient", f"r{k}", "--no-distance"),
+            ],
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.PIPE,
+        )
+        for k in range(4)
+    ]
+    errors = [p.communicate()[1] for p in procs]
+    assert [p.returncode for p in procs] == [0, 0, 0, 0], errors
+    with Registry.open(db, create=False) as registry:
+        assert len(registry.assets()) == 1
+        copies = registry.copies()
+    assert sorted(c.recipient for c in copies) == ["r0", "r1", "r2", "r3"]
+    assert sorted(c.payload for c in copies) == [f"{k + 1:016x}" for k in range(4)]
