@@ -1,0 +1,140 @@
+"""Cost of ``trace`` against a large registry, against one informed read of the right asset.
+
+The registry holds the development meshes (two marked copies each) and ``--assets`` in all:
+the others are made from the development meshes by random smooth deformations (an anisotropic
+scale and a bend, from SHA-256 of their index), each with its own shape descriptor, reference
+(the deformed reference points) and one copy.  For each mesh, its first copy is moved by a
+random similarity and simplified to 50 %, then (a) traced against a registry of its own asset
+alone (one informed read: descriptor, pose, offsets, the copies' tests), (b) traced against
+the full registry; median of ``--repeat`` runs each, whole ``Tracer(...).trace(...)`` calls.
+
+    python scripts/bench_trace.py [--assets 1000] [--meshes spot igea ...] [--repeat 3]
+        [--out FILE]
+"""
+
+from __future__ import annotations
+
+import argparse
+import hashlib
+import os
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from check_informed import KEY, MAX_FACES, embed_mesh  # type: ignore[import-not-found]
+from check_keep import DEV, MESHES  # type: ignore[import-not-found]
+
+from meshwm.apps.registry import AssetEntry, CopyEntry, Registry
+from meshwm.attacks import apply_attack
+from meshwm.mesh.io import read_mesh
+from meshwm.readers.informed import REFERENCE_SIZE, Reference, seal_signature
+from meshwm.readers.registration import shape_descriptor
+from meshwm.watermark.trace import Tracer
+
+
+def _uniform(*parts: object, count: int) -> np.ndarray:
+    digest = hashlib.sha256("/".join(map(str, parts)).encode()).digest()
+    return np.frombuffer(digest[: 8 * count], dtype="<u8") / 2.0**64
+
+
+def _deform(x: np.ndarray, k: int, centre: np.ndarray, size: float) -> np.ndarray:
+    a = 0.6 + 0.8 * _uniform("scale", k, count=3)
+    bend = (_uniform("bend", k, count=1)[0] - 0.5) * 0.6
+    y = (x - centre) * a
+    y[:, 2] += bend * (y[:, 0] / size) ** 2 * size
+    return y + centre
+
+
+def decoys(registry: Registry, count: int) -> None:
+    """``count`` deformed development meshes as assets, one random copy each."""
+    meshes = [read_mesh(MESHES / f"{m}.ply") for m in DEV]
+    refs = {a.name: a.id for a in registry.assets()}
+    bases = [Reference.from_bytes(registry.references(refs[m])[REFERENCE_SIZE]) for m in DEV]
+    for k in range(count):
+        i = k % len(DEV)
+        v, f = meshes[i]
+        centre, size = v.mean(axis=0), float(np.ptp(v, axis=0).max())
+        ref = bases[i]
+        moved = ref._replace(points=_deform(ref.points, k, centre, size))
+        sig = np.sin(np.arange(len(ref.cells)) * (k + 1) * 0.37)
+        registry.record_embed(
+            AssetEntry(
+                name=f"decoy-{k}",
+                input_sha256=hashlib.sha256(f"decoy/{k}".encode()).hexdigest(),
+                vertices=len(v),
+                faces=len(f),
+                descriptor=shape_descriptor(_deform(v, k, centre, size), f),
+                references={REFERENCE_SIZE: moved.to_bytes()},
+            ),
+            CopyEntry(
+                payload=f"{k:016x}",
+                recipient=None,
+                output_name=f"decoy-{k}.ply",
+                output_sha256="0" * 64,
+                n=128,
+                signature=seal_signature(sig, moved, key=KEY),
+            ),
+        )
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--assets", type=int, default=1000)
+    parser.add_argument("--meshes", nargs="+", default=["spot", "fandisk", "kitten", "igea"])
+    parser.add_argument("--repeat", type=int, default=3)
+    parser.add_argument("--out", type=Path)
+    args = parser.parse_args()
+    lines = [
+        "| mesh | one informed read s | trace, "
+        f"{args.assets} assets s | ratio | found | candidates tried |",
+        "|---|---:|---:|---:|---|---:|",
+    ]
+    with tempfile.TemporaryDirectory() as scratch:
+        big = os.path.join(scratch, "big.db")
+        for m in DEV:
+            embed_mesh((m, big, scratch))
+        t0 = time.perf_counter()
+        with Registry.open(big) as registry:
+            decoys(registry, args.assets - len(DEV))
+            held = len(registry.assets())
+        fill = time.perf_counter() - t0
+        for m in args.meshes:
+            one = os.path.join(scratch, f"one-{m}.db")
+            embed_mesh((m, one, scratch))
+            _, f = read_mesh(MESHES / f"{m}.ply")
+            v = np.load(Path(scratch) / f"{m}.npy")
+            v, f = apply_attack("similarity", v, f, seed=11)
+            v, f = apply_attack("simplify", v, f, seed=1, keep_fraction=0.5)
+            times: dict[str, list[float]] = {"one": [], "big": []}
+            found = None
+            for _ in range(args.repeat):
+                for label, db in (("one", one), ("big", big)):
+                    with Registry.open(db, create=False) as registry:
+                        t = time.perf_counter()
+                        traced = Tracer(v, f, registry, max_faces=MAX_FACES).trace(key=KEY)
+                        times[label].append(time.perf_counter() - t)
+                    if label == "big":
+                        found = traced
+            a, b = float(np.median(times["one"])), float(np.median(times["big"]))
+            assert found is not None
+            ok = found.detected and found.report.get("asset") == m
+            lines.append(
+                f"| {m} | {a:.2f} | {b:.2f} | {b / a:.2f} | {'yes' if ok else 'NO'} | "
+                f"{len(found.report['candidates'])} |"
+            )
+    lines.append(f"\nregistry: {held} assets, filled in {fill:.0f} s")
+    text = "\n".join(lines)
+    print(text)
+    if args.out:
+        args.out.write_text(text + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
