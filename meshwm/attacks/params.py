@@ -222,10 +222,10 @@ ATTACK_PARAMS: dict[str, tuple[AttackParam, ...]] = {
     ),
     "subdivide_midpoint": (AttackParam("iterations", int, 1, _ITERATIONS, low=1, high=3),),
     "subdivide_loop": (AttackParam("iterations", int, 1, _ITERATIONS, low=1, high=3),),
-    "remesh_isotropic": (
-        AttackParam("iterations", int, 3, "remeshing rounds", low=1, high=10),
+    "remesh_isotropic": (AttackParam("iterations", int, 3, "remeshing rounds", low=1, high=10),),
+    "poisson": (
+        AttackParam("depth", int, 8, "octree depth of the reconstruction", low=5, high=11),
     ),
-    "poisson": (AttackParam("depth", int, 8, "octree depth of the reconstruction", low=5, high=11),),
     "flip_edges": (
         AttackParam("count", int, 10, "number of edges flipped (fewer if fewer qualify)", low=0),
         AttackParam(

@@ -74,10 +74,20 @@ class Traced(NamedTuple):
         A registered copy was identified at the false-positive rate asked for.
     report : dict
         ``reader`` ("informed"), ``asset_id``, ``asset``, ``copy_id``, ``id`` (the copy's
-        payload), ``recipient``, ``p_value``, ``hypotheses``, ``z``, ``versus_z`` (the best copy
-        against the runner-up), ``present`` (fraction of reference points the received surface
-        covers), ``registration_rms``, ``candidates`` (what was tried, nearest first) and
-        ``seconds``.
+        payload), ``recipient``, ``p_value`` (a copy of the asset is present) over
+        ``hypotheses``, ``z``, ``versus_z`` and ``versus_p_value`` (the best copy against the
+        runner-up) over ``alternatives`` (the asset's other copies), ``asset_detected``,
+        ``present`` (fraction of reference points the received surface covers),
+        ``registration_rms``, ``candidates`` (what was tried, nearest first) and ``seconds``.
+
+    Notes
+    -----
+    Two decisions, each at ``fpr``.  *Presence*: the best copy's correlation p-value times
+    every hypothesis the tracer could test (candidates × poses × copies).  *Identity*, made only
+    once presence holds: the best copy against the runner-up, on the difference of their
+    signatures, times the asset's other copies (the alternatives it could be mistaken for).
+    Against a registered alternative the difference test's true null mean is negative (the
+    alternative's own pattern), so its zero-mean p-value is conservative.
     """
 
     detected: bool
@@ -179,25 +189,36 @@ class Tracer:
                 unseal_signature(c.signature, cand.reference, key=key) for c in cand.copies
             ]
             k, score, versus = identify(cand.offsets, signatures, cand.reference)
-            p = max(score.p_value, versus.p_value if versus is not None else 0.0)
-            entry.update(z=score.z, p_value=p)
+            entry.update(z=score.z, p_value=score.p_value)
+            # Two decisions: a copy of this asset is present (every hypothesis counted), then
+            # which one (the best against each other copy it could be: the runner-up first).
+            alternatives = len(signatures) - 1
+            told = versus is None or is_detected(versus.p_value, fpr=fpr, hypotheses=alternatives)
             found = {
                 "asset_id": asset_id,
                 "copy_id": int(cand.copies[k].id),
                 "id": cand.copies[k].payload,
                 "recipient": cand.copies[k].recipient,
-                "p_value": p,
+                "p_value": score.p_value,
                 "z": score.z,
                 "rho": score.rho,
                 "versus_z": None if versus is None else versus.z,
+                "versus_p_value": None if versus is None else versus.p_value,
+                "alternatives": alternatives,
                 "present": float(np.mean(np.isfinite(cand.offsets))),
                 "registration_rms": cand.rms,
             }
-            if best is None or p < best["p_value"]:
+            if best is None or score.p_value < best["p_value"]:
                 best = found
-            if is_detected(p, fpr=fpr, hypotheses=hypotheses):
-                detected = True
+            if is_detected(score.p_value, fpr=fpr, hypotheses=hypotheses):
                 best = found
+                best["asset_detected"] = True
+                detected = told
+                if not told:
+                    best["note"] = (
+                        "a registered copy of this asset is present, but which one is not told "
+                        "apart at this false-positive rate"
+                    )
                 break
         report: dict[str, Any] = {"reader": "informed", "registry": True}
         if best is not None:

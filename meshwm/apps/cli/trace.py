@@ -34,7 +34,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
             "mesh posed against each one's reference, its surface sampled there and each "
             "copy's signature tested. Reports the asset, the copy (id, recipient), the "
             "p-value against --fpr over every hypothesis tried, and the reader used. The "
-            "informed reader: meshwm docs registry."
+            "informed reader: meshwm docs informed."
         ),
     )
     parser.add_argument("input", type=Path, help="the received mesh file")
@@ -180,6 +180,11 @@ def _copy(registry: Any, copy: Any) -> dict[str, Any]:
 
 def _line(row: dict[str, Any]) -> str:
     name = row["name"]
+    if not row["detected"] and row.get("asset_detected"):
+        return (
+            f"{name}: asset {row['asset']!r} (#{row['asset_id']}): {row['note']} (best copy "
+            f"#{row['copy_id']}, z {row['versus_z']:.1f} against the runner-up)"
+        )
     if not row["detected"]:
         why = row.get("reason") or "no registered copy found"
         p = row.get("p_value")

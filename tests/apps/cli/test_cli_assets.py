@@ -419,7 +419,7 @@ def test_docs_lists_and_prints_the_pages(capsys):
 def test_help_texts_point_at_pages_that_exist(capsys):
     from meshwm.data import doc_topics
 
-    for command in ("attack", "embed", "verify", "render", "bench", "registry"):
+    for command in ("attack", "embed", "verify", "render", "bench", "registry", "trace"):
         with pytest.raises(SystemExit):
             main([command, "--help"])
         text = " ".join(capsys.readouterr().out.split())
