@@ -156,7 +156,9 @@ class Tracer:
             cand = _Candidate(asset_id, None, None, copies, 0, None, "no reference or no copy")
         else:
             reference = Reference.from_bytes(blob)
-            pose = register(self._v, self._f, reference.points, reference_normals=reference.normals)
+            pose = register(
+                self._v, self._f, reference.anchors, reference_normals=reference.anchor_normals
+            )
             moved = pose.scale * self._v @ pose.rotation.T + pose.translation
             if pose.rms > MAX_REGISTRATION_RMS:
                 note = f"no pose fits (residual {pose.rms:.2g} of the diagonal)"

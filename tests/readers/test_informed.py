@@ -43,6 +43,8 @@ def test_reference_round_trip_is_exact(spot_copies):
     assert np.array_equal(back.cells, reference.cells)
     assert np.array_equal(back.points, reference.points.astype(np.float32).astype(np.float64))
     assert np.allclose(back.normals, reference.normals, atol=1e-6)
+    assert np.array_equal(back.anchors, reference.anchors.astype(np.float32).astype(np.float64))
+    assert np.allclose(back.anchor_normals, reference.anchor_normals, atol=1e-3)
 
 
 @pytest.mark.parametrize("data", [b"", b"not a reference", b"PK\x03\x04" + bytes(40)])

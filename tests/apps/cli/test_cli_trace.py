@@ -92,14 +92,17 @@ def test_trace_names_the_copy_after_retessellation(registered, tmp_path, capsys,
 def test_trace_with_a_wrong_key_finds_nothing(registered, tmp_path, capsys):
     _, db, outs = registered
     received = _attacked(outs[0], tmp_path / "leak.ply", "simplify", keep_fraction=0.5)
-    code = main(["trace", str(received), "--key", "not the key", "--registry", str(db)])
+    code = main(
+        ["trace", str(received), "--key", "not the key", "--registry", str(db), "--informed-only"]
+    )
     out = capsys.readouterr().out
     assert code == 1 and "NOT traced" in out
 
 
 def test_trace_of_an_unmarked_mesh_finds_nothing(registered, assets_dir, capsys):
     _, db, _ = registered
-    code = main(["trace", str(assets_dir / "spot.ply"), "--key", KEY, "--registry", str(db)])
+    spot = str(assets_dir / "spot.ply")
+    code = main(["trace", spot, "--key", KEY, "--registry", str(db), "--informed-only"])
     assert code == 1
     assert "NOT traced" in capsys.readouterr().out
 
