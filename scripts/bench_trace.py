@@ -9,7 +9,10 @@ alone (one informed read: descriptor, pose, offsets, the copies' tests), (b) tra
 the full registry; median of ``--repeat`` runs each, whole ``Tracer(...).trace(...)`` calls.
 
     python scripts/bench_trace.py [--assets 1000] [--meshes spot igea ...] [--repeat 3]
-        [--out FILE]
+        [--out FILE] [--reuse DIR]
+
+``--reuse DIR``: the registry and marked copies ``scripts/null_informed.py`` or an earlier run
+built (``DIR/registry.db``, ``DIR/<mesh>.npy``), instead of embedding again.
 """
 
 from __future__ import annotations
@@ -17,6 +20,7 @@ from __future__ import annotations
 import argparse
 import hashlib
 import os
+import shutil
 import sys
 import tempfile
 import time
@@ -53,7 +57,12 @@ def _deform(x: np.ndarray, k: int, centre: np.ndarray, size: float) -> np.ndarra
 
 def decoys(registry: Registry, count: int) -> None:
     """``count`` deformed development meshes as assets, one random copy each."""
-    meshes = [read_mesh(MESHES / f"{m}.ply") for m in DEV]
+    meshes = []
+    for m in DEV:  # a coarse copy is enough for a decoy's descriptor, and quicker
+        v, f = read_mesh(MESHES / f"{m}.ply")
+        if len(f) > 6000:
+            v, f = apply_attack("simplify", v, f, keep_fraction=6000 / len(f))
+        meshes.append((v, f))
     refs = {a.name: a.id for a in registry.assets()}
     bases = [Reference.from_bytes(registry.references(refs[m])[REFERENCE_SIZE]) for m in DEV]
     for k in range(count):
@@ -83,12 +92,41 @@ def decoys(registry: Registry, count: int) -> None:
         )
 
 
+def copy_asset(source: Registry, target: Registry, name: str) -> None:
+    """The asset called ``name`` with its references and copies, into ``target``."""
+    (asset,) = [a for a in source.assets() if a.name == name]
+    ids, table = source.descriptors()
+    descriptor = table[int(np.flatnonzero(ids == asset.id)[0])]
+    entry = AssetEntry(
+        name=asset.name,
+        input_sha256=asset.input_sha256,
+        vertices=asset.vertices,
+        faces=asset.faces,
+        descriptor=descriptor,
+        references=source.references(asset.id),
+    )
+    for c in source.copies(asset.id):
+        target.record_embed(
+            entry,
+            CopyEntry(
+                payload=c.payload,
+                recipient=c.recipient,
+                output_name=c.output_name,
+                output_sha256=c.output_sha256,
+                n=c.n,
+                params=c.params,
+                signature=c.signature,
+            ),
+        )
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--assets", type=int, default=1000)
     parser.add_argument("--meshes", nargs="+", default=["spot", "fandisk", "kitten", "igea"])
     parser.add_argument("--repeat", type=int, default=3)
     parser.add_argument("--out", type=Path)
+    parser.add_argument("--reuse", type=Path, help="a folder an earlier run built")
     args = parser.parse_args()
     lines = [
         "| mesh | one informed read s | trace, "
@@ -97,8 +135,16 @@ def main() -> int:
     ]
     with tempfile.TemporaryDirectory() as scratch:
         big = os.path.join(scratch, "big.db")
-        for m in DEV:
-            embed_mesh((m, big, scratch))
+        if args.reuse:
+            with Registry.open(args.reuse / "registry.db", create=False) as source:
+                with Registry.open(big) as target:
+                    for m in DEV:
+                        copy_asset(source, target, m)
+            for m in DEV:
+                shutil.copy(args.reuse / f"{m}.npy", Path(scratch) / f"{m}.npy")
+        else:
+            for m in DEV:
+                embed_mesh((m, big, scratch))
         t0 = time.perf_counter()
         with Registry.open(big) as registry:
             decoys(registry, args.assets - len(DEV))
@@ -106,7 +152,8 @@ def main() -> int:
         fill = time.perf_counter() - t0
         for m in args.meshes:
             one = os.path.join(scratch, f"one-{m}.db")
-            embed_mesh((m, one, scratch))
+            with Registry.open(big, create=False) as source, Registry.open(one) as target:
+                copy_asset(source, target, m)
             _, f = read_mesh(MESHES / f"{m}.ply")
             v = np.load(Path(scratch) / f"{m}.npy")
             v, f = apply_attack("similarity", v, f, seed=11)

@@ -11,7 +11,10 @@ copy counted).  Prints a table (trials, detections, the largest z of the best co
 smallest p-value × hypotheses) and exits 1 if anything is detected.
 
     python scripts/null_informed.py [--keys 200] [--wrong-keys 50] [--jobs 2] [--out FILE]
-        [--registry DB]
+        [--reuse DIR]
+
+``--reuse DIR`` takes the registry (``DIR/registry.db``) and the marked copies (``DIR/*.npy``)
+an earlier run built instead of building them.
 """
 
 from __future__ import annotations
@@ -111,12 +114,16 @@ def main() -> int:
     parser.add_argument("--wrong-keys", type=int, default=50)
     parser.add_argument("--jobs", type=int, default=2)
     parser.add_argument("--out", type=Path)
+    parser.add_argument("--reuse", type=Path, help="a folder an earlier run built")
     args = parser.parse_args()
     t0 = time.perf_counter()
-    with tempfile.TemporaryDirectory() as scratch:
+    with tempfile.TemporaryDirectory() as temporary:
+        scratch = str(args.reuse) if args.reuse else temporary
         db = os.path.join(scratch, "registry.db")
         with ProcessPoolExecutor(max_workers=args.jobs) as pool:
-            built = list(pool.map(embed_mesh, [(m, db, scratch) for m in args.meshes]))
+            built = []
+            if not args.reuse:
+                built = list(pool.map(embed_mesh, [(m, db, scratch) for m in args.meshes]))
             errors = [r for r in built if "error" in r]
             tasks = [(m, db, scratch, args.keys, args.wrong_keys) for m in args.meshes]
             rows = [row for rows in pool.map(run_mesh, tasks) for row in rows]
