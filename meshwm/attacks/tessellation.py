@@ -107,6 +107,7 @@ def poisson(vertices: NDArray, faces: NDArray, *, seed: int = 0, depth: int = 8)
 
     def apply(ms: pymeshlab.MeshSet) -> None:
         ms.compute_normal_per_vertex(weightmode="By Area")
-        ms.generate_surface_reconstruction_screened_poisson(depth=d, preclean=True)
+        # One thread: MeshLab's parallel octree build orders the output differently each run.
+        ms.generate_surface_reconstruction_screened_poisson(depth=d, preclean=True, threads=1)
 
     return run_meshlab(vertices, faces, apply)

@@ -108,7 +108,7 @@ def test_registry_names_its_functions():
         *("similarity", "rotation", "translation", "scaling", "reorder", "noise", "float32"),
         "round_trip",
         *("laplacian", "meshlab_laplacian", "taubin", "quantize", "crop", "simplify"),
-        *("subdivide_midpoint", "subdivide_loop"),
+        *("subdivide_midpoint", "subdivide_loop", "remesh_isotropic", "poisson"),
         *("flip_edges", "retriangulate", "split_seams", "merge_load", "weld_stl"),
         *("gim_gaussian", "gim_log", "gim_laplacian", "gim_salt_pepper", "gim_noise", "gim_crop"),
     }
