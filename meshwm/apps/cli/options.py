@@ -33,6 +33,7 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers only
 __all__ = [
     "DEFAULT_MARK_SIZE",
     "KEY_ENV",
+    "add_fpr_option",
     "add_key_options",
     "add_max_faces",
     "add_watermark_options",
@@ -294,6 +295,16 @@ def _profile_options() -> list[tuple[str, Any]]:
 
 def _flag(field_name: str) -> str:
     return "--" + field_name.replace("_", "-")
+
+
+def add_fpr_option(parser: argparse.ArgumentParser) -> None:
+    """``--fpr``: the false-positive probability a decision allows (verify, trace)."""
+    parser.add_argument(
+        "--fpr",
+        type=probability,
+        default=1e-6,
+        help="false-positive probability allowed, over all hypotheses tried (1e-6)",
+    )
 
 
 def add_watermark_options(parser: argparse.ArgumentParser, *, size: bool) -> None:

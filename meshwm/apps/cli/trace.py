@@ -41,12 +41,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
     parser.add_argument(
         "--registry", required=True, metavar="DB", help="the registry: a file or a PostgreSQL URL"
     )
-    parser.add_argument(
-        "--fpr",
-        type=options.probability,
-        default=1e-6,
-        help="false-positive probability allowed, over all hypotheses tried (1e-6)",
-    )
+    options.add_fpr_option(parser)
     parser.add_argument(
         "--candidates",
         type=options.positive_int,

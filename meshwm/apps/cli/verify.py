@@ -58,12 +58,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
         default=options.DEFAULT_MARK_SIZE,
         help=f"side of the square mark ({options.DEFAULT_MARK_SIZE})",
     )
-    parser.add_argument(
-        "--fpr",
-        type=options.probability,
-        default=1e-6,
-        help="false-positive probability allowed, over all hypotheses tried (1e-6)",
-    )
+    options.add_fpr_option(parser)
     parser.add_argument(
         "--jobs",
         type=options.positive_int,
