@@ -41,18 +41,6 @@ CANDIDATES = 10
 MAX_REGISTRATION_RMS = 0.01
 
 
-class _Copy(Protocol):
-    id: int
-    payload: str
-    recipient: str | None
-    signature: bytes | None
-
-
-class _Asset(Protocol):
-    id: int
-    name: str
-
-
 class RegistryView(Protocol):
     """What tracing reads from a registry."""
 
