@@ -13,8 +13,8 @@ smallest p-value × hypotheses) and exits 1 if anything is detected.
     python scripts/null_informed.py [--keys 200] [--wrong-keys 50] [--jobs 2] [--out FILE]
         [--reuse DIR]
 
-``--reuse DIR`` takes the registry (``DIR/registry.db``) and the marked copies (``DIR/*.npy``)
-an earlier run built instead of building them.
+``--reuse DIR`` keeps the registry (``DIR/registry.db``) and the marked copies (``DIR/*.npy``)
+there: built on the first run, taken as they are on the next.
 """
 
 from __future__ import annotations
@@ -25,7 +25,7 @@ import os
 import sys
 import tempfile
 import time
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 from typing import Any
 
@@ -43,6 +43,7 @@ from meshwm.mesh.io import read_mesh
 from meshwm.watermark.trace import Tracer
 
 FPR = 1e-6
+WRONG = "wrong keys"
 VARIANTS = {
     "as given": None,
     "simplify 50 %": ("simplify", {"keep_fraction": 0.5}),
@@ -69,42 +70,28 @@ def _trials(tracer: Tracer, keys: list[str]) -> dict[str, Any]:
     return {"trials": len(keys), "detected": detected, "z_max": z_max, "ph_min": ph_min}
 
 
-def run_mesh(task: tuple[str, str, str, int, int]) -> list[dict[str, Any]]:
-    name, db, scratch, n_keys, n_wrong = task
+def run_case(task: tuple[str, str, str, str, int, int]) -> dict[str, Any] | None:
+    """One mesh × one case (an unmarked variant, or the marked copy under wrong keys)."""
+    name, label, db, scratch, n_keys, n_wrong = task
     v, f = read_mesh(MESHES / f"{name}.ply")
-    rows = []
+    t0 = time.perf_counter()
     with Registry.open(db, create=False) as registry:
-        for label, attack in VARIANTS.items():
-            t0 = time.perf_counter()
+        if label == WRONG:
+            marked_path = Path(scratch) / f"{name}.npy"
+            if not marked_path.exists():
+                return None
+            tracer = Tracer(np.load(marked_path), f, registry, max_faces=MAX_FACES)
+            keys = [_key("wrong", name, i) for i in range(n_wrong)]
+        else:
+            attack = VARIANTS[label]
             vv, ff = (
                 (v, f) if attack is None else apply_attack(attack[0], v, f, seed=1, **attack[1])
             )
             tracer = Tracer(vv, ff, registry, max_faces=MAX_FACES)
             keys = [_key("null", name, label, i) for i in range(n_keys)] + [KEY]
-            row = _trials(tracer, keys)
-            rows.append(
-                {
-                    "mesh": name,
-                    "case": f"unmarked, {label}",
-                    **row,
-                    "seconds": time.perf_counter() - t0,
-                }
-            )
-        marked_path = Path(scratch) / f"{name}.npy"
-        if marked_path.exists():
-            t0 = time.perf_counter()
-            tracer = Tracer(np.load(marked_path), f, registry, max_faces=MAX_FACES)
-            keys = [_key("wrong", name, i) for i in range(n_wrong)]
-            row = _trials(tracer, keys)
-            rows.append(
-                {
-                    "mesh": name,
-                    "case": "marked, wrong keys",
-                    **row,
-                    "seconds": time.perf_counter() - t0,
-                }
-            )
-    return rows
+        row = _trials(tracer, keys)
+    case = "marked, wrong keys" if label == WRONG else f"unmarked, {label}"
+    return {"mesh": name, "case": case, **row, "seconds": time.perf_counter() - t0}
 
 
 def main() -> int:
@@ -119,14 +106,32 @@ def main() -> int:
     t0 = time.perf_counter()
     with tempfile.TemporaryDirectory() as temporary:
         scratch = str(args.reuse) if args.reuse else temporary
+        os.makedirs(scratch, exist_ok=True)
         db = os.path.join(scratch, "registry.db")
         with ProcessPoolExecutor(max_workers=args.jobs) as pool:
             built = []
-            if not args.reuse:
+            if not os.path.exists(db):
                 built = list(pool.map(embed_mesh, [(m, db, scratch) for m in args.meshes]))
             errors = [r for r in built if "error" in r]
-            tasks = [(m, db, scratch, args.keys, args.wrong_keys) for m in args.meshes]
-            rows = [row for rows in pool.map(run_mesh, tasks) for row in rows]
+            tasks = [
+                (m, label, db, scratch, args.keys, args.wrong_keys)
+                for m in args.meshes
+                for label in [*VARIANTS, WRONG]
+            ]
+            rows = []
+            for future in as_completed([pool.submit(run_case, t) for t in tasks]):
+                row = future.result()
+                if row is None:
+                    continue
+                rows.append(row)
+                print(
+                    f"{row['mesh']}, {row['case']}: {row['detected']}/{row['trials']} detected, "
+                    f"largest z {row['z_max']:.2f} ({row['seconds']:.0f} s)",
+                    file=sys.stderr,
+                    flush=True,
+                )
+        order = {(m, c): i for i, (m, c) in enumerate((t[0], t[1]) for t in tasks)}
+        rows.sort(key=lambda r: order[(r["mesh"], r["case"].split(", ", 1)[-1])])
         with Registry.open(db, create=False) as registry:
             held = (len(registry.assets()), len(registry.copies()))
     lines = [

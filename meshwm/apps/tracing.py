@@ -86,8 +86,9 @@ def record_copies(
 ) -> list[tuple[int, int]]:
     """Record each marked mesh (its asset, then the copy) in ``registry``; (asset, copy) ids.
 
-    The reference is made from the input mesh (:func:`meshwm.readers.informed.make_reference`),
-    the signature from the marked one, sealed under ``key``.
+    The reference is made from the input mesh (:func:`meshwm.readers.informed.make_reference`;
+    with the input's vertex positions when the copy keeps its mesh), the signature from the
+    marked one, sealed under ``key``.
     """
     from meshwm.apps.registry import AssetEntry, CopyEntry
     from meshwm.readers.informed import (
@@ -100,7 +101,12 @@ def record_copies(
 
     out = []
     for mesh in meshes:
-        reference = make_reference(mesh.vertices, mesh.faces, max_faces=max_faces)
+        kept = mesh.marked.shape == mesh.vertices.shape and np.array_equal(
+            mesh.faces, mesh.marked_faces
+        )
+        reference = make_reference(
+            mesh.vertices, mesh.faces, max_faces=max_faces, snapshot=bool(kept)
+        )
         signature = copy_signature(reference, mesh.marked, mesh.marked_faces)
         asset = AssetEntry(
             name=mesh.name,

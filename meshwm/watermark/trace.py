@@ -3,8 +3,10 @@
 Composition only: the registry's shape descriptors pick the candidate assets
 (:func:`meshwm.readers.registration.shape_descriptor`), each candidate's reference gives the
 pose (:func:`meshwm.readers.registration.register`) and the received offsets
-(:func:`meshwm.readers.informed.received_offsets`), and each copy's signature, unsealed with the
-key, is tested against them (:func:`meshwm.readers.informed.identify`).  Candidates are tried
+(:func:`meshwm.readers.informed.received_offsets`) — and, when the received mesh has the asset's
+own vertices and faces, the offsets through that correspondence
+(:func:`meshwm.readers.informed.same_mesh_offsets`) —, and each copy's signature, unsealed with
+the key, is tested against them (:func:`meshwm.readers.informed.identify`).  Candidates are tried
 in descriptor order and the first that identifies a copy stops the search; the decision counts
 every hypothesis that could have been tried (every candidate × pose × copy), so stopping early
 never raises the false-positive rate.
@@ -29,16 +31,28 @@ from meshwm.readers.informed import (
     Reference,
     identify,
     received_offsets,
+    same_mesh_offsets,
     unseal_signature,
 )
 from meshwm.readers.registration import descriptor_distance, register, shape_descriptor
 
-__all__ = ["CANDIDATES", "MAX_REGISTRATION_RMS", "RegistryView", "Traced", "Tracer", "trace"]
+__all__ = [
+    "CANDIDATES",
+    "MAX_REGISTRATION_RMS",
+    "VERTEX_HYPOTHESES",
+    "RegistryView",
+    "Traced",
+    "Tracer",
+    "trace",
+]
 
 #: Candidate assets tried, nearest descriptors first.
 CANDIDATES = 10
 #: A pose whose residual (over the reference's diagonal) is larger than this is not the asset.
 MAX_REGISTRATION_RMS = 0.01
+#: Readings through the received mesh's own vertices (the same mesh as the asset), per copy:
+#: counted for every candidate, whether or not it applies.
+VERTEX_HYPOTHESES = 1
 
 
 class RegistryView(Protocol):
@@ -66,12 +80,15 @@ class Traced(NamedTuple):
         ``hypotheses``, ``z``, ``versus_z`` and ``versus_p_value`` (the best copy against the
         runner-up) over ``alternatives`` (the asset's other copies), ``asset_detected``,
         ``present`` (fraction of reference points the received surface covers),
+        ``correspondence`` ("pose": the received surface registered to the reference;
+        "vertices": the received mesh is the asset's own mesh, read vertex by vertex),
         ``registration_rms``, ``candidates`` (what was tried, nearest first) and ``seconds``.
 
     Notes
     -----
     Two decisions, each at ``fpr``.  *Presence*: the best copy's correlation p-value times
-    every hypothesis the tracer could test (candidates × poses × copies).  *Identity*, made only
+    every hypothesis the tracer could test (candidates × (poses + :data:`VERTEX_HYPOTHESES`) ×
+    copies).  *Identity*, made only
     once presence holds: the best copy against the runner-up, on the difference of their
     signatures, times the asset's other copies (the alternatives it could be mistaken for).
     Against a registered alternative the difference test's true null mean is negative (the
@@ -86,6 +103,7 @@ class _Candidate(NamedTuple):
     asset_id: int
     reference: Reference | None
     offsets: NDArray[np.float64] | None
+    same: NDArray[np.float64] | None
     copies: list[Any]
     pose_hypotheses: int
     rms: float | None
@@ -129,10 +147,11 @@ class Tracer:
 
     @property
     def hypotheses(self) -> int:
-        """Every hypothesis the tracer can test: candidates × poses × copies."""
+        """Every hypothesis the tracer can test: candidates × (poses + vertex reading) × copies."""
         from meshwm.readers.registration import POSE_HYPOTHESES
 
-        return max(1, sum(POSE_HYPOTHESES * max(1, len(c)) for c in self._copies.values()))
+        per_copy = POSE_HYPOTHESES + VERTEX_HYPOTHESES
+        return max(1, sum(per_copy * max(1, len(c)) for c in self._copies.values()))
 
     def _candidate(self, asset_id: int) -> _Candidate:
         if asset_id in self._posed:
@@ -141,23 +160,25 @@ class Tracer:
         blob = self._registry.references(asset_id).get(REFERENCE_SIZE)
         cand: _Candidate
         if blob is None or not copies:
-            cand = _Candidate(asset_id, None, None, copies, 0, None, "no reference or no copy")
+            cand = _Candidate(
+                asset_id, None, None, None, copies, 0, None, "no reference or no copy"
+            )
         else:
             reference = Reference.from_bytes(blob)
+            same = same_mesh_offsets(reference, self._v, self._f)
             pose = register(
                 self._v, self._f, reference.anchors, reference_normals=reference.anchor_normals
             )
             moved = pose.scale * self._v @ pose.rotation.T + pose.translation
+            offsets = None
+            note = None
             if pose.rms > MAX_REGISTRATION_RMS:
                 note = f"no pose fits (residual {pose.rms:.2g} of the diagonal)"
-                cand = _Candidate(
-                    asset_id, reference, None, copies, pose.hypotheses, pose.rms, note
-                )
             else:
                 offsets = received_offsets(reference, moved, self._f)
-                cand = _Candidate(
-                    asset_id, reference, offsets, copies, pose.hypotheses, pose.rms, None
-                )
+            cand = _Candidate(
+                asset_id, reference, offsets, same, copies, pose.hypotheses, pose.rms, note
+            )
         self._posed[asset_id] = cand
         return cand
 
@@ -172,13 +193,19 @@ class Tracer:
             cand = self._candidate(asset_id)
             entry: dict[str, Any] = {"asset_id": asset_id, "registration_rms": cand.rms}
             tried.append(entry)
-            if cand.offsets is None or cand.reference is None:
+            readings = [
+                (label, offsets)
+                for label, offsets in (("pose", cand.offsets), ("vertices", cand.same))
+                if offsets is not None
+            ]
+            if not readings or cand.reference is None:
                 entry["note"] = cand.note
                 continue
             signatures = [
                 unseal_signature(c.signature, cand.reference, key=key) for c in cand.copies
             ]
-            k, score, versus = identify(cand.offsets, signatures, cand.reference)
+            read = [(label, o, *identify(o, signatures, cand.reference)) for label, o in readings]
+            correspondence, offsets, k, score, versus = min(read, key=lambda r: r[3].p_value)
             entry.update(z=score.z, p_value=score.p_value)
             # Two decisions: a copy of this asset is present (every hypothesis counted), then
             # which one (the best against each other copy it could be: the runner-up first).
@@ -195,7 +222,8 @@ class Tracer:
                 "versus_z": None if versus is None else versus.z,
                 "versus_p_value": None if versus is None else versus.p_value,
                 "alternatives": alternatives,
-                "present": float(np.mean(np.isfinite(cand.offsets))),
+                "present": float(np.mean(np.isfinite(offsets))),
+                "correspondence": correspondence,
                 "registration_rms": cand.rms,
             }
             if best is None or score.p_value < best["p_value"]:

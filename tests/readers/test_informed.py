@@ -12,9 +12,11 @@ from meshwm.readers.informed import (
     Reference,
     copy_signature,
     correlate,
+    faces_digest,
     identify,
     make_reference,
     received_offsets,
+    same_mesh_offsets,
     seal_signature,
     unseal_signature,
 )
@@ -45,6 +47,68 @@ def test_reference_round_trip_is_exact(spot_copies):
     assert np.allclose(back.normals, reference.normals, atol=1e-6)
     assert np.array_equal(back.anchors, reference.anchors.astype(np.float32).astype(np.float64))
     assert np.allclose(back.anchor_normals, reference.anchor_normals, atol=1e-3)
+    assert back.vertices is not None and back.faces_digest == reference.faces_digest
+    assert np.array_equal(back.vertices, reference.vertices.astype(np.float32).astype(np.float64))
+
+
+def test_a_reference_without_the_asset_vertices_reads_and_does_not_apply(spot_copies):
+    v, f, reference, copies, _ = spot_copies
+    bare = make_reference(v, f, max_faces=10**6, snapshot=False)
+    assert bare.vertices is None and bare.faces_digest is None
+    back = Reference.from_bytes(bare.to_bytes())
+    assert back.vertices is None and np.array_equal(back.cells, reference.cells)
+    assert same_mesh_offsets(back, copies[0], f) is None
+
+
+def test_the_vertex_reading_needs_the_same_faces(spot_copies):
+    v, f, reference, copies, _ = spot_copies
+    assert faces_digest(f) == faces_digest(f.astype(np.int32))
+    assert same_mesh_offsets(reference, copies[0], f[::-1]) is None  # faces reordered
+    assert same_mesh_offsets(reference, copies[0][:-1], f[f.max(axis=1) < len(v) - 1]) is None
+    flipped = f.copy()
+    flipped[0] = flipped[0, ::-1]
+    assert same_mesh_offsets(reference, copies[0], flipped) is None
+    assert same_mesh_offsets(reference, copies[0], f) is not None
+
+
+@pytest.mark.parametrize(
+    ("attack", "options"),
+    [
+        ("meshlab_laplacian", {"iterations": 3}),
+        ("taubin", {}),
+        ("laplacian", {"iterations": 30}),
+        ("noise", {"amplitude": 0.003}),
+        ("quantize", {"bits": 9}),
+    ],
+)
+@pytest.mark.parametrize("which", [0, 1])
+def test_the_vertex_reading_tells_copies_apart_after_smoothing(spot_copies, attack, options, which):
+    v, f, reference, copies, signatures = spot_copies
+    vv, ff = apply_attack("similarity", copies[which], f, seed=3)
+    vv, ff = apply_attack(attack, vv, ff, seed=1, **options)
+    offsets = same_mesh_offsets(reference, vv, ff)
+    assert offsets is not None
+    best, score, versus = identify(offsets, signatures, reference)
+    assert best == which and score.z > PRESENT_Z and versus is not None and versus.z > PRESENT_Z
+    unmarked = apply_attack(attack, *apply_attack("similarity", v, f, seed=3), seed=1, **options)
+    offsets = same_mesh_offsets(reference, *unmarked)
+    assert offsets is not None
+    assert max(correlate(offsets, s, reference).z for s in signatures) < ABSENT_Z
+
+
+def test_the_vertex_reading_does_not_move_under_similarities(spot_copies):
+    """20 random similarities (scale 0.01-100, translation ±100) give the same offsets."""
+    _, f, reference, copies, _ = spot_copies
+    base = same_mesh_offsets(reference, copies[0], f)
+    assert base is not None
+    rng = np.random.default_rng(20)
+    for _ in range(20):
+        q, _ = np.linalg.qr(rng.normal(size=(3, 3)))
+        q *= np.sign(np.linalg.det(q))
+        moved = 10 ** rng.uniform(-2, 2) * copies[0] @ q.T + rng.uniform(-100, 100, 3)
+        again = same_mesh_offsets(reference, moved, f)
+        assert again is not None
+        assert np.nanmax(np.abs(again - base)) < 1e-9 * reference.diagonal
 
 
 @pytest.mark.parametrize("data", [b"", b"not a reference", b"PK\x03\x04" + bytes(40)])

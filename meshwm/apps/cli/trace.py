@@ -173,6 +173,13 @@ def _copy(registry: Any, copy: Any) -> dict[str, Any]:
     }
 
 
+def _through(row: dict[str, Any]) -> str:
+    """How the informed reader matched the received mesh to the asset, for the report line."""
+    if row.get("correspondence") == "vertices":
+        return ", read vertex by vertex: the received mesh is the asset's own mesh"
+    return ""
+
+
 def _line(row: dict[str, Any]) -> str:
     name = row["name"]
     if not row["detected"] and row.get("asset_detected"):
@@ -195,7 +202,7 @@ def _line(row: dict[str, Any]) -> str:
     what = f"id {row['id']}" if not str(row["id"]).startswith("mark:") else "a mark"
     if reader == "informed":
         return (
-            f"{name}: {what}, {who}; informed reader (registry), p-value {row['p_value']:.3g} "
-            f"over {row['hypotheses']} hypotheses, z {row['z']:.1f}"
+            f"{name}: {what}, {who}; informed reader (registry{_through(row)}), p-value "
+            f"{row['p_value']:.3g} over {row['hypotheses']} hypotheses, z {row['z']:.1f}"
         )
     return f"{name}: {what} read blind ({reader}); {who or row.get('note', '')}"

@@ -183,8 +183,9 @@ def _verdict(row: dict[str, Any], what: str) -> str:
         found = row.get("informed") or {}
         details.append(
             f"informed reader (registry): asset {found.get('asset')!r}, copy "
-            f"#{found.get('copy_id')} for {found.get('recipient') or 'no recipient recorded'}, "
-            f"p-value {row['p_value']:.3g} over {row['hypotheses']} hypotheses"
+            f"#{found.get('copy_id')} for {found.get('recipient') or 'no recipient recorded'}"
+            + (", read vertex by vertex" if found.get("correspondence") == "vertices" else "")
+            + f", p-value {row['p_value']:.3g} over {row['hypotheses']} hypotheses"
         )
     text = f"{what} {'present' if row['detected'] else 'absent'}"
     text += f" ({'; '.join(details)})" if details else ""

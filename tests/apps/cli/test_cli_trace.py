@@ -89,6 +89,24 @@ def test_trace_names_the_copy_after_retessellation(registered, tmp_path, capsys,
     assert mesh["p_value"] * mesh["hypotheses"] < 1e-6
 
 
+def test_trace_reads_a_smoothed_copy_vertex_by_vertex(registered, tmp_path, capsys):
+    """MeshLab's Laplacian on the copy's own mesh: the informed reader matches its vertices to
+    the asset's (a similarity and reordering of nothing else) and names the copy."""
+    _, db, outs = registered
+    v, f = read_mesh(outs[1])
+    v, f = apply_attack("similarity", v, f, seed=5)
+    v, f = apply_attack("meshlab_laplacian", v, f, iterations=3)
+    write_mesh(tmp_path / "smooth.ply", v, f)
+    args = ["--key", KEY, "--registry", str(db), "--informed-only"]
+    code = main(["trace", str(tmp_path / "smooth.ply"), *args, "--json"])
+    report = json.loads(capsys.readouterr().out)
+    assert code == 0, report
+    (mesh,) = report["meshes"]
+    assert mesh["correspondence"] == "vertices" and mesh["recipient"] == "bob"
+    assert main(["trace", str(tmp_path / "smooth.ply"), *args]) == 0
+    assert "read vertex by vertex" in capsys.readouterr().out
+
+
 def test_trace_with_a_wrong_key_finds_nothing(registered, tmp_path, capsys):
     _, db, outs = registered
     received = _attacked(outs[0], tmp_path / "leak.ply", "simplify", keep_fraction=0.5)
