@@ -94,6 +94,7 @@ def record_copies(
     from meshwm.readers.informed import (
         REFERENCE_SIZE,
         copy_signature,
+        host_changes,
         make_reference,
         seal_signature,
     )
@@ -107,7 +108,8 @@ def record_copies(
         reference = make_reference(
             mesh.vertices, mesh.faces, max_faces=max_faces, snapshot=bool(kept)
         )
-        signature = copy_signature(reference, mesh.marked, mesh.marked_faces)
+        host = host_changes(reference, mesh.vertices, mesh.faces)
+        signature = copy_signature(reference, mesh.marked, mesh.marked_faces, host=host)
         asset = AssetEntry(
             name=mesh.name,
             input_sha256=mesh_sha256(mesh.vertices, mesh.faces),

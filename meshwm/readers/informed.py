@@ -5,9 +5,10 @@ subdivision or remeshing no blind map comes within a fraction of a sample of the
 layout, and nothing reads.  A studio that keeps a record of which copy went to whom can keep a
 little more: for each asset, a *reference* (the points of its unmarked surface image and the
 surface normals there, :func:`make_reference`), and for each copy, the mark's *signature*: the
-normal offset of the marked surface from the reference at every reference point
-(:func:`copy_signature`), stored permuted under the key (:func:`seal_signature`), so the
-registry alone does not tell where any copy's mark lies.
+normal offset of the marked surface from the reference at every reference point, less what
+light smoothing does to the unmarked asset (:func:`copy_signature`, :func:`host_changes`),
+stored permuted under the key (:func:`seal_signature`), so the registry alone does not tell
+where any copy's mark lies.
 
 To read, the received mesh is brought into the reference's pose
 (:mod:`meshwm.readers.registration`) and its normal offsets from the reference points are
@@ -74,6 +75,7 @@ __all__ = [
     "correlate",
     "faces_digest",
     "highpass",
+    "host_changes",
     "identify",
     "make_reference",
     "received_offsets",
@@ -368,15 +370,63 @@ def received_offsets(reference: Reference, vertices: NDArray, faces: NDArray) ->
     return out
 
 
-def copy_signature(reference: Reference, vertices: NDArray, faces: NDArray) -> NDArray:
+def host_changes(reference: Reference, vertices: NDArray, faces: NDArray) -> NDArray:
+    """What light smoothing does to the unmarked asset, as offsets from its reference points.
+
+    One and five uniform Laplacian steps (λ 0.5) and one cotangent step (MeshLab's), each
+    applied to the asset (``vertices``, ``faces``) and read with :func:`received_offsets`:
+    the directions in which decimation, subdivision and smoothing move *any* version of this
+    surface (:func:`copy_signature` removes them from a copy's signature).
+
+    Returns
+    -------
+    (k, 3) float64 ndarray
+        One column per smoothing; 0 where a point is far.
+    """
+    from meshwm.mesh.edges import uniform_smoothing_operator
+    from meshwm.mesh.unsmooth import cotangent_smooth
+
+    v = np.asarray(vertices, dtype=np.float64)
+    f = np.asarray(faces, dtype=np.int64)
+    step, moved = uniform_smoothing_operator(len(v), f)
+    columns = []
+    x = v.copy()
+    for k in range(5):
+        x[moved] += 0.5 * ((step @ x)[moved] - x[moved])
+        if k in (0, 4):
+            columns.append(received_offsets(reference, x, f))
+    columns.append(received_offsets(reference, cotangent_smooth(v, f, iterations=1), f))
+    return np.nan_to_num(np.stack(columns, axis=1), nan=0.0)
+
+
+def copy_signature(
+    reference: Reference, vertices: NDArray, faces: NDArray, *, host: NDArray | None = None
+) -> NDArray:
     """A marked copy's signature: its normal offsets from the (unmarked) reference.
+
+    With ``host`` (:func:`host_changes` of the unmarked asset), the signature's high-passed
+    component along the host's own smoothing directions is removed (least squares).  Embedding
+    smooths a host's finest detail a little, so a raw signature shares a pattern with any
+    smoothed or re-tessellated *unmarked* version of the asset: igea subdivided by Loop,
+    unmarked, scored z 5.4 against its first copy's raw signature (the presence threshold over
+    1,540 hypotheses is 6.1), and 0.4 against the signature with that pattern removed; the
+    copy itself, decimated to 50 %, 36.6 and 34.9.
 
     Returns
     -------
     (k,) float32 ndarray
         NaN where the copy's surface is far from the reference (never, for a kept copy).
     """
-    return received_offsets(reference, vertices, faces).astype(np.float32)
+    sig = received_offsets(reference, vertices, faces)
+    if host is not None:
+        fields = np.asarray(host, dtype=np.float64).reshape(len(sig), -1)
+        h = np.stack([highpass(c, reference) for c in fields.T], axis=1)
+        hs = highpass(sig, reference)
+        ok = np.isfinite(hs) & np.all(np.isfinite(h), axis=1)
+        if ok.sum() > h.shape[1]:
+            coef, *_ = np.linalg.lstsq(h[ok], hs[ok], rcond=None)
+            sig = sig - fields @ coef
+    return sig.astype(np.float32)
 
 
 def _purpose(n: int, count: int) -> str:
