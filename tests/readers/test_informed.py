@@ -13,6 +13,8 @@ from meshwm.readers.informed import (
     copy_signature,
     correlate,
     faces_digest,
+    highpass,
+    host_changes,
     identify,
     make_reference,
     received_offsets,
@@ -34,7 +36,8 @@ def spot_copies(spot_mesh):
     v, f = spot_mesh
     reference = make_reference(v, f, max_faces=10**6)
     copies = [embed(v, f, key="k", ident=bytes.fromhex(i), distances=False).vertices for i in IDS]
-    signatures = [copy_signature(reference, c, f) for c in copies]
+    host = host_changes(reference, v, f)
+    signatures = [copy_signature(reference, c, f, host=host) for c in copies]
     return v, f, reference, copies, signatures
 
 
@@ -109,6 +112,20 @@ def test_the_vertex_reading_does_not_move_under_similarities(spot_copies):
         again = same_mesh_offsets(reference, moved, f)
         assert again is not None
         assert np.nanmax(np.abs(again - base)) < 1e-9 * reference.diagonal
+
+
+def test_a_signature_carries_nothing_of_the_host_smoothing(spot_copies):
+    """The host's own smoothing directions are projected out: the unmarked asset smoothed
+    those ways does not correlate with any copy, and the signatures keep the marks."""
+    v, f, reference, copies, signatures = spot_copies
+    host = host_changes(reference, v, f)
+    assert host.shape == (len(reference.cells), 3) and np.abs(host).max() > 0
+    for sig in signatures:
+        for column in host.T:
+            assert abs(correlate(column, sig, reference).z) < 1.0
+    raw = [copy_signature(reference, c, f) for c in copies]
+    for r, sig in zip(raw, signatures, strict=True):
+        assert np.corrcoef(highpass(r, reference), highpass(sig, reference))[0, 1] > 0.9
 
 
 @pytest.mark.parametrize("data", [b"", b"not a reference", b"PK\x03\x04" + bytes(40)])
