@@ -142,6 +142,33 @@ def test_surface_peak_is_the_two_sided_vertex_distance(spot_mesh):
         np.testing.assert_array_equal(clamped[small], d[small])  # their whole move
 
 
+@pytest.mark.parametrize("above", [0.0, 2e-4, 6e-4, 2e-3])
+def test_vertex_distances_are_exact_wherever_they_pass_the_threshold(spot_mesh, above):
+    """Each vertex's two-sided distance, against igl's on the whole mesh, for every vertex
+    over ``above`` (the ring bound only decides which vertices are queried)."""
+    import igl
+
+    from meshwm.watermark.keep import _vertex_distances
+
+    v, f = spot_mesh
+    f = np.concatenate([f, [[0, 0, 1]]])  # a degenerate face does not upset the bound
+    diag = bounding_box_diagonal(v)
+    rng = np.random.default_rng(7)
+    checked = 0
+    for scale in (1e-4, 5e-4, 3e-3):  # up to moves larger than spot's edges
+        d = rng.normal(size=v.shape) * scale * diag
+        there = igl.point_mesh_squared_distance(v + d, v, f)[0]
+        back = igl.point_mesh_squared_distance(v, v + d, f)[0]
+        brute = np.sqrt(np.maximum(there, back))
+        got, got_diag = _vertex_distances(v, f, d, above=above)
+        assert got_diag == pytest.approx(diag)
+        over = brute > above * diag
+        checked += int(over.sum())
+        np.testing.assert_allclose(got[over], brute[over], rtol=1e-12, atol=1e-15 * diag)
+        assert np.all(got[~over] <= above * diag)
+    assert checked > 100
+
+
 @pytest.mark.slow
 def test_the_genus_8_plate_is_marked_within_the_hausdorff_cap():
     from meshwm.apps.bench.synthetic import make
