@@ -66,6 +66,8 @@ KEEP_MAX_PEAK = 1.3e-3
 #: a vertex's distance also depends on its neighbours' moves), each aiming a little under it.
 _PEAK_ROUNDS = 3
 _PEAK_AIM = 0.97
+#: How many of the largest moves :func:`surface_peak` measures first.
+_PEAK_FIRST = 1024
 #: The transfer's smoothness energy (:data:`meshwm.gim.transfer.ENERGIES`).
 KEEP_ENERGY = "dirichlet"
 #: Least-squares refinement passes of each transfer (the outer passes refine too).
@@ -138,17 +140,20 @@ def surface_peak(
     without its edge and face samples (:func:`_vertex_distances`).
     """
     used = _used(faces, len(positions))
-    largest = float(np.linalg.norm(displacement[used], axis=1).max(initial=0.0))
-    # No vertex is farther than its own move: query the larger moves first, all if needed.
     pts = positions[used]
     diag = float(np.linalg.norm(pts.max(axis=0) - pts.min(axis=0))) if len(used) else 0.0
     if diag <= 0:
         return 0.0
-    for fraction in (0.5, 0.0):
-        dist, _ = _vertex_distances(positions, faces, displacement, above=fraction * largest / diag)
-        if dist.max(initial=0.0) >= fraction * largest:
-            break
-    return float(dist.max(initial=0.0)) / diag
+    # No vertex is farther than its own move: the largest moves first, then, if none of them
+    # is as far as the rest may move, every vertex whose bound passes the best found.
+    move = np.sort(np.linalg.norm(displacement[used], axis=1))[::-1]
+    first = float(move[min(_PEAK_FIRST, len(move)) - 1])
+    dist, _ = _vertex_distances(positions, faces, displacement, above=first / diag)
+    best = float(dist.max(initial=0.0))
+    if best < first:
+        dist, _ = _vertex_distances(positions, faces, displacement, above=best / diag)
+        best = float(dist.max(initial=0.0))
+    return best / diag
 
 
 def _vertex_distances(
