@@ -369,7 +369,7 @@ def throughput(cache: Path, count: int) -> list[str]:
             )
             read_s = float(read.stdout.strip().splitlines()[-1])
             t = time.perf_counter()
-            verify = [sys.executable, "-m", "meshwm", "verify", "--id", IDENT.hex()]
+            verify = [sys.executable, "-m", "meshwm", "verify", "--id", "0x" + IDENT.hex()]
             done = subprocess.run(
                 [*verify, "--key", KEY, "--jobs", str(jobs), "--jsonl", str(folder)],
                 capture_output=True,
@@ -378,6 +378,8 @@ def throughput(cache: Path, count: int) -> list[str]:
                 cwd=ROOT,
             )
             verify_s = time.perf_counter() - t
+            if done.returncode == 2:  # an error, not a verdict: no figure to print
+                raise SystemExit(f"verify failed: {done.stderr.strip()}")
             found = sum('"detected": true' in line for line in done.stdout.splitlines())
             rows.append(
                 f"| {mode} | {count} | {n_vertices:,} | {jobs} | {verify_s:.1f} "

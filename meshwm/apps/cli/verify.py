@@ -91,7 +91,12 @@ def run(args: argparse.Namespace) -> int:
     from meshwm.apps.progress import ProgressBar, Status
     from meshwm.message.mark import default_mark, load_mark
 
-    ident = options.ident(args.id_text) if args.id_text is not None else None
+    ident = None
+    if args.id_text is not None:
+        try:
+            ident = options.ident(args.id_text)
+        except argparse.ArgumentTypeError as exc:  # a usage error, reported as argparse would
+            raise ValueError(f"argument --id: {exc}") from None
     mark = None
     if ident is None and not args.any_id:
         mark = (

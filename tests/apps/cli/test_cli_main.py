@@ -41,6 +41,8 @@ def _one_line_error(capsys: pytest.CaptureFixture) -> str:
         ["frobnicate"],
         [],
         ["remesh", "IN", "-o", "OUT.ply", "--bogus"],
+        ["verify", "IN", "--key", "k", "--id", "0badc0de5ca1ab1e"],  # 16 letters: not an id
+        ["verify", "IN", "--key", "k", "--id", "0xZZ"],
     ],
 )
 def test_bad_options_exit_2_with_one_line(argv, tmp_path, capsys):
@@ -48,7 +50,8 @@ def test_bad_options_exit_2_with_one_line(argv, tmp_path, capsys):
         a.replace("IN", str(ASSETS / "spot.ply")).replace("OUT", str(tmp_path / "o")) for a in argv
     ]
     assert main(argv) == 2
-    _one_line_error(capsys)
+    err = _one_line_error(capsys)
+    assert "internal error" not in err
     assert list(tmp_path.iterdir()) == []
 
 
