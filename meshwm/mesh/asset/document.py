@@ -210,14 +210,28 @@ def weld_rows(
     >>> rows.tolist(), vertex.tolist()
     ([0, 1, 2, 3], [0, 1, 0, 2])
     """
-    rows = np.unique(np.asarray(rows, dtype=np.int64))
+    rows = np.asarray(rows, dtype=np.int64).ravel()
+    if len(rows) and rows.min() >= 0:  # a count, not a sort (rows index ``positions``)
+        rows = np.flatnonzero(np.bincount(rows, minlength=len(positions)))
+    else:
+        rows = np.unique(rows)
     if not len(rows):
         return rows, rows.copy()
-    _, first, inverse = np.unique(positions[rows], axis=0, return_index=True, return_inverse=True)
-    inverse = inverse.reshape(-1)
+    # Equal positions by their bits (-0.0 made 0.0 first, as float equality has it), grouped
+    # by one stable lexicographic sort: ``np.unique(..., axis=0)`` did the same through a
+    # structured view, 0.15 s a 50k-vertex file, most of a batch verify's reading.
+    bits = np.ascontiguousarray(positions[rows] + 0.0).view(np.uint64).reshape(len(rows), -1)
+    order = np.lexsort(bits.T[::-1])
+    ordered = bits[order]
+    new = np.ones(len(rows), dtype=bool)
+    new[1:] = np.any(ordered[1:] != ordered[:-1], axis=1)
+    group = np.cumsum(new) - 1
+    first = order[new]  # a stable sort: each group's first row in the file comes first
     rank = np.empty(len(first), dtype=np.int64)
     rank[np.argsort(first, kind="stable")] = np.arange(len(first))
-    return rows, rank[inverse]
+    vertex = np.empty(len(rows), dtype=np.int64)
+    vertex[order] = rank[group]
+    return rows, vertex
 
 
 def fan_triangles(
@@ -294,7 +308,7 @@ def group_sections(
     parent = list(range(len(kept)))
     owner = np.full(len(positions), -1, dtype=np.int64)
     for k, (_, tri, _) in enumerate(kept):
-        used = np.unique(tri)
+        used = np.flatnonzero(np.bincount(tri.ravel(), minlength=len(positions)))
         for other in np.unique(owner[used][owner[used] >= 0]).tolist():
             a, b = _union_find(parent, k), _union_find(parent, int(other))
             if a != b:
@@ -313,7 +327,9 @@ def group_sections(
             name = f"{name}#{seen[name]}"
         tri = np.concatenate([kept[k][1] for k in members])
         rows, vertex = weld_rows(positions, tri.ravel())
-        local = vertex[np.searchsorted(rows, tri)]
+        where = np.empty(len(positions), dtype=np.int64)
+        where[rows] = vertex
+        local = where[tri]
         polygons = sum(kept[k][2] for k in members)
         meshes.append(AssetMesh(name, rows, vertex, local, polygons))
     return meshes
