@@ -295,8 +295,10 @@ def _record(
     params: WatermarkParams,
     marked: list[MarkedMesh],
     report: dict[str, Any],
-) -> list[dict[str, int]]:
-    """Record the copy; if that fails, the output is removed (no unrecorded copy goes out)."""
+) -> list[dict[str, Any]]:
+    """Record the copy; if that fails, the output is removed (no unrecorded copy goes out).
+    A copy whose payload an earlier copy of the same asset carries is recorded, with a
+    warning (``same_payload_as``)."""
     import hashlib
 
     from meshwm.apps.tracing import record_copies
@@ -317,7 +319,25 @@ def _record(
         if args.output.resolve() != args.input.resolve():  # never the input (--force)
             args.output.unlink(missing_ok=True)
         raise
-    return [{"asset_id": a, "copy_id": c} for a, c in recorded]
+    rows: list[dict[str, Any]] = []
+    for mesh, (asset_id, copy_id) in zip(marked, recorded, strict=True):
+        row: dict[str, Any] = {"asset_id": asset_id, "copy_id": copy_id}
+        # The same payload under the same key is the same mark: trace could not say which
+        # recipient's copy turned up.  (The key is not stored, so the registry cannot tell
+        # whether the keys differ: say so and let the user decide.)
+        earlier = [c for c in registry.find_copies(asset_id, mesh.payload) if c.id < copy_id]
+        if earlier:
+            first = earlier[0]
+            row["same_payload_as"] = first.id
+            who = f" for {first.recipient}" if first.recipient else ""
+            print(
+                f"meshwm: warning: copy #{copy_id} of asset #{asset_id} carries the same payload "
+                f"as copy #{first.id}{who}; under the same key trace cannot tell them apart "
+                "(give each recipient its own --id)",
+                file=sys.stderr,
+            )
+        rows.append(row)
+    return rows
 
 
 def _summary_line(summary: dict[str, Any]) -> str:

@@ -216,3 +216,30 @@ def test_four_embeds_into_one_registry_at_once_lose_no_record(tmp_path, assets_d
         copies = registry.copies()
     assert sorted(c.recipient for c in copies) == ["r0", "r1", "r2", "r3"]
     assert sorted(c.payload for c in copies) == [f"{k + 1:016x}" for k in range(4)]
+
+
+def test_a_copy_with_an_earlier_copys_payload_is_recorded_with_a_warning(
+    tmp_path, assets_dir, capsys
+):
+    """Two recipients given one id cannot be told apart by trace: the second embed says so."""
+    db = tmp_path / "studio.db"
+
+    def embed(ident: str, who: str) -> tuple[dict, str]:
+        out = tmp_path / f"{who}.ply"
+        argv = ["embed", str(assets_dir / "spot.ply"), "-o", str(out), "--key", KEY]
+        argv += ["--id", ident, "--registry", str(db), "--recipient", who]
+        assert main([*argv, "--no-distance", "--json"]) == 0
+        captured = capsys.readouterr()
+        return json.loads(captured.out), captured.err
+
+    first, err = embed(IDS[0], "alice")
+    assert "warning" not in err and "same_payload_as" not in first["registry"][0]
+    other, err = embed(IDS[1], "bob")
+    assert "warning" not in err and "same_payload_as" not in other["registry"][0]
+    again, err = embed(IDS[0], "carol")
+    row = again["registry"][0]
+    assert row["same_payload_as"] == first["registry"][0]["copy_id"]
+    assert err.count("\n") == 1 and err.startswith("meshwm: warning: ")
+    assert "same payload" in err and "for alice" in err and KEY not in err
+    with Registry.open(db, create=False) as registry:  # recorded all the same
+        assert [c.recipient for c in registry.copies()] == ["alice", "bob", "carol"]
