@@ -68,6 +68,8 @@ _PEAK_ROUNDS = 3
 _PEAK_AIM = 0.97
 #: How many of the largest moves :func:`surface_peak` measures first.
 _PEAK_FIRST = 1024
+#: Vertices whose ring bound is computed at once (:func:`_ring_bound`).
+_RING_CHUNK = 250_000
 #: The transfer's smoothness energy (:data:`meshwm.gim.transfer.ENERGIES`).
 KEEP_ENERGY = "dirichlet"
 #: Least-squares refinement passes of each transfer (the outer passes refine too).
@@ -225,16 +227,18 @@ def _ring_bound(
     distances, ``trimesh.triangles.closest_point``), and at most its move (``surface[i]`` is
     on that surface).  Infinite elsewhere.
     """
-    asked = np.zeros(len(points), dtype=bool)
-    asked[ask] = True
-    face, corner = np.nonzero(asked[faces])
-    vertex = faces[face, corner]
-    with np.errstate(all="ignore"):  # a degenerate face gives NaN: fmin skips it
-        nearest = closest_point(surface[faces[face]], points[vertex])
-        gap = np.linalg.norm(nearest - points[vertex], axis=1)
     out = np.full(len(points), np.inf)
     out[ask] = move[ask]
-    np.fmin.at(out, vertex, gap)
+    asked = np.zeros(len(points), dtype=bool)
+    for lo in range(0, len(ask), _RING_CHUNK):  # bounded memory on a mesh of millions
+        asked[:] = False
+        asked[ask[lo : lo + _RING_CHUNK]] = True
+        face, corner = np.nonzero(asked[faces])
+        vertex = faces[face, corner]
+        with np.errstate(all="ignore"):  # a degenerate face gives NaN: fmin skips it
+            nearest = closest_point(surface[faces[face]], points[vertex])
+            gap = np.linalg.norm(nearest - points[vertex], axis=1)
+        np.fmin.at(out, vertex, gap)
     return out
 
 
