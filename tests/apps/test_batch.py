@@ -181,7 +181,9 @@ def test_dask_local_cluster_gives_the_same_rows(library, capsys):
     paths = expand_paths([library])
     check = Check(key=KEY, params=WatermarkParams(), mark=default_mark(32))
     with (
-        distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True) as cluster,
+        distributed.LocalCluster(
+            n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
+        ) as cluster,
         distributed.Client(cluster) as client,
     ):
         rows = list(run_dask(paths, check, scheduler=client))
@@ -198,7 +200,9 @@ def test_dask_local_cluster_gives_the_same_rows(library, capsys):
     many = [paths[k % len(paths)] for k in range(2 * DASK_TASKS_PER_WORKER * 2 + 1)]
     assert _chunk_size(len(many), 2) == 2
     with (
-        distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True) as cluster,
+        distributed.LocalCluster(
+            n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
+        ) as cluster,
         distributed.Client(cluster) as client,
     ):
         grouped = list(run_dask(many, check, scheduler=client))

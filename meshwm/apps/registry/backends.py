@@ -13,9 +13,12 @@ simply run again (PostgreSQL serialization failures and deadlocks, SQLite's busy
 from __future__ import annotations
 
 import contextlib
+import itertools
 import os
+import random
 import sqlite3
 import struct
+import time
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -146,14 +149,28 @@ def set_wal(backend: Backend) -> None:
 
     Done on the DBAPI connection, outside any transaction (the pragma refuses to run in one).
     """
-    raw = backend.engine.raw_connection()
-    try:
-        cursor = raw.cursor()
-        cursor.execute("PRAGMA journal_mode = WAL")
-        row = cursor.fetchone()
-        cursor.close()
-    finally:
-        raw.close()
+    row = None
+    # The switch needs the file to itself for a moment, and SQLite may answer "locked" at
+    # once rather than wait out the busy timeout (a reader that would have to upgrade its lock
+    # backs off to avoid a deadlock): seen with four processes opening a new registry on a
+    # loaded machine.  Try again, with a growing random pause, for up to the busy timeout.
+    deadline = time.monotonic() + BUSY_TIMEOUT
+    for attempt in itertools.count():
+        raw = backend.engine.raw_connection()
+        try:
+            cursor = raw.cursor()
+            cursor.execute("PRAGMA journal_mode = WAL")
+            row = cursor.fetchone()
+            cursor.close()
+            break
+        except sqlite3.OperationalError as error:
+            if "locked" not in str(error) and "busy" not in str(error):
+                raise RegistryError(f"{backend.name}: {_one_line(error)}") from None
+            if time.monotonic() > deadline:
+                raise RegistryError(f"{backend.name}: {_one_line(error)}") from None
+        finally:
+            raw.close()
+        time.sleep(random.uniform(0.0, min(0.02 * 2**attempt, 1.0)))
     mode = row[0] if row else None
     if str(mode).lower() != "wal":
         raise RegistryError(f"{backend.name}: cannot switch the registry to WAL mode ({mode})")
