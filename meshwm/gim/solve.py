@@ -39,8 +39,9 @@ def _hierarchy(matrix: sp.csr_matrix) -> Any:
     # Smoothed aggregation with symmetric Gauss-Seidel (a symmetric preconditioner, as CG
     # wants).  Ruge-Stüben, used before, needed ever more iterations on the cotangent
     # Laplacian as the mesh grew (igea Loop-subdivided, 4 vertices fixed: 47 iterations at
-    # 0.5M, 59 at 2M; 15.9 s and 133 s, slope 1.52); this: 30 and 33, 10.9 s and 45.7 s
-    # (slope 1.04).  On the Tutte systems both need 22 (0.5M: 12.4 s against 8.8 s).
+    # 0.5M, 59 at 2M; 15.9 s and 133 s, slope 1.52); this, as configured here: 33 iterations,
+    # 9.0 s at 0.5M and 217 s at 5M (docs/bench/scale.md).  The Tutte system at 0.5M: 21-22
+    # iterations and 12.4 s against 28 and 8.7 s.
     # The prolongator's Jacobi smoothing weighted by Gershgorin's local bound, not by PyAMG's
     # default spectral-radius estimate (which starts from a random vector): the hierarchy, and
     # so every solve, is a deterministic function of the matrix.
