@@ -148,8 +148,9 @@ def surface_peak(
         return 0.0
     # No vertex is farther than its own move: the largest moves first, then, if none of them
     # is as far as the rest may move, every vertex whose bound passes the best found.
-    move = np.sort(np.linalg.norm(displacement[used], axis=1))[::-1]
-    first = float(move[min(_PEAK_FIRST, len(move)) - 1])
+    move = np.linalg.norm(displacement[used], axis=1)
+    k = len(move) - min(_PEAK_FIRST, len(move))
+    first = float(np.partition(move, k)[k])  # the _PEAK_FIRST-th largest move
     dist, _ = _vertex_distances(positions, faces, displacement, above=first / diag)
     best = float(dist.max(initial=0.0))
     if best < first:
