@@ -67,10 +67,11 @@ def read_grid(
     """
     v, f = check_mesh(vertices, faces, max_faces=max_faces)
     if rules_out_grid(len(v), f):
-        # Most vertices on six triangles in every component: not a grid of ours, and merging
+        # Most vertices on six triangles, or most faces without the corners of a 4-8 grid's, in
+        # every component: not a grid of ours, and merging
         # exact duplicates or dropping the faces around irregular vertices cannot make it one
         # (a grid's samples are on 3-5 or 7-9 triangles; :mod:`meshwm.gim.recover.rule_out`).
-        raise GridError("no meshwm grid: most vertices lie on six triangles")
+        raise GridError("no meshwm grid: the connectivity is not a 4-8 grid's")
     try:
         # Every component: a cropped grid can fall apart into pieces, each read on its own.
         return recover_grid(v, f), v, f

@@ -89,7 +89,8 @@ a position, so any pose, scale or vertex order reads the same.
 - :mod:`~meshwm.gim.recover.fast`: the fast path;
 - :mod:`~meshwm.gim.recover.repair`: :func:`drop_irregular`, for welded meshes;
 - :mod:`~meshwm.gim.recover.rule_out`: :func:`rules_out_grid`, the cheap test that a mesh
-  holds no grid (most vertices on six triangles), asked before the search;
+  holds no grid (most vertices on six triangles, or most faces without a 4-8 grid face's
+  corners), asked before the search;
 - :mod:`~meshwm.gim.recover.result` and :mod:`~meshwm.gim.recover.read`:
   :class:`RecoveredGrid` and :func:`recover_grid`, re-exported here.
 """

@@ -95,8 +95,8 @@ def recover_grid(vertices: NDArray, faces: NDArray, *, size: int | None = None) 
     if rules_out_grid(len(v), f):
         raise GridError(
             "no geometry-image grid in the connectivity: in every component most vertices lie "
-            "on six triangles, which a meshwm grid's samples never do (the mesh was not written "
-            "by meshwm, or was remeshed)"
+            "on six triangles, or most faces lack a 4-8 grid face's corners, which a meshwm "
+            "grid's never do (the mesh was not written by meshwm, or was remeshed)"
         )
     return _read_order_free(v, f, size)
 

@@ -154,6 +154,43 @@ def test_a_mesh_of_six_valent_vertices_is_ruled_out_before_the_search(spot_mesh)
     assert not rules_out_grid(len(soup.ravel()), soup)
 
 
+def _split_face_disjoint_edges(v, f):
+    """Split edges no two of which share a face (greedily): each new vertex lies on four
+    triangles and both corners across its edge gain one, as where a mesh's longest edges
+    were split."""
+    mesh = trimesh.Trimesh(v, f, process=False)
+    keep = np.ones(len(f), dtype=bool)
+    points, added, n = [v], [], len(v)
+    for (a, b), (x, y) in zip(mesh.face_adjacency, mesh.face_adjacency_edges, strict=True):
+        if not (keep[a] and keep[b]):
+            continue
+        keep[a] = keep[b] = False
+        points.append((v[x] + v[y])[None] / 2)
+        for t in (f[a], f[b]):
+            k = next(i for i in range(3) if {t[i], t[(i + 1) % 3]} == {x, y})
+            p, q, r = t[k], t[(k + 1) % 3], t[(k + 2) % 3]
+            added += [(p, n, r), (n, q, r)]
+        n += 1
+    return np.vstack(points), np.vstack([f[keep], np.array(added)])
+
+
+def test_a_mesh_of_split_edges_is_ruled_out_though_few_vertices_lie_on_six():
+    """Splitting edges puts vertices on four and on seven to nine triangles, as a 4-8 grid
+    has; the faces around them still do not have a grid face's corners (two on 7-9 and one
+    on 3-5, or one and two) as nearly all of a grid's do."""
+    from meshwm.gim.recover import rules_out_grid
+    from meshwm.gim.recover.rule_out import MAX_SIX
+
+    sphere = trimesh.creation.icosphere(subdivisions=3)
+    v, f = _split_face_disjoint_edges(np.asarray(sphere.vertices), np.asarray(sphere.faces))
+    assert trimesh.Trimesh(v, f, process=False).is_watertight
+    degree = np.bincount(f.ravel())
+    assert np.mean(degree == 6) <= MAX_SIX / 2  # the six-valence rule alone lets it through
+    assert rules_out_grid(len(v), f)
+    with pytest.raises(GridError, match="4-8 grid"):
+        recover_grid(v, f)
+
+
 @pytest.mark.parametrize("name", MESHES)
 def test_grids_are_not_ruled_out(welded, name):
     from meshwm.gim.recover import rules_out_grid
