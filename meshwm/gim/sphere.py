@@ -42,6 +42,7 @@ from scipy.spatial import cKDTree
 
 from meshwm.errors import MeshError
 from meshwm.gim.pose import SNAP, Pose
+from meshwm.mesh.edges import unique_rows
 
 __all__ = [
     "GAP_MARGIN",
@@ -97,10 +98,11 @@ def point_set(vertices: NDArray, faces: NDArray) -> PointSet:
     used = np.zeros(len(v), dtype=bool)
     used[np.asarray(faces, dtype=np.int64).ravel()] = True
     # + 0.0 turns -0.0 into 0.0: one position, one point.
-    points, inverse = np.unique(v[used] + 0.0, axis=0, return_inverse=True)
+    x = v[used] + 0.0
+    first, inverse = unique_rows(x)  # as np.unique(axis=0): the points in sorted order
     index = np.full(len(v), -1, dtype=np.int64)
-    index[used] = inverse.ravel()
-    return PointSet(points, index)
+    index[used] = inverse
+    return PointSet(x[first], index)
 
 
 def _moments(rel: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:

@@ -34,6 +34,7 @@ from meshwm.gim.holes import boundary_loops, fill_holes
 from meshwm.gim.sampling import sampling_matrix
 from meshwm.gim.tutte import StableMap, restart_map, stable_parameterize
 from meshwm.mesh.clean import clean_mesh
+from meshwm.mesh.edges import distinct_rows
 
 __all__ = [
     "SURFACE_RANKS",
@@ -107,20 +108,14 @@ class SurfaceImage(NamedTuple):
 
 def _distinct(vertices: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
     """Distinct rows (bit-exact) and the index of each input row among them."""
-    view = np.ascontiguousarray(vertices).view(np.dtype((np.void, 24))).ravel()
-    _, first, inverse = np.unique(view, return_index=True, return_inverse=True)
-    order = np.argsort(first)  # positions numbered by first appearance: order-free enough
-    rank = np.empty_like(order)
-    rank[order] = np.arange(len(order))
-    return vertices[first[order]], rank[inverse.ravel()].astype(np.int64)
+    first, inverse = distinct_rows(vertices)  # numbered by first appearance
+    return vertices[first], inverse
 
 
 def _locate(positions: NDArray[np.float64], points: NDArray[np.float64]) -> NDArray[np.int64]:
     """The distinct position equal to each point (every point is one of them)."""
-    both = np.concatenate([positions, points])
-    view = np.ascontiguousarray(both).view(np.dtype((np.void, 24))).ravel()
-    _, first, inv = np.unique(view, return_index=True, return_inverse=True)
-    found = first[inv.ravel()[len(positions) :]]
+    first, inv = distinct_rows(np.concatenate([positions, points]))
+    found = first[inv[len(positions) :]]
     if np.any(found >= len(positions)):  # pragma: no cover - clean_mesh moves no vertex
         raise MeshError("internal error: a cleaned vertex is not an input position")
     return found.astype(np.int64)
