@@ -22,6 +22,7 @@ def test_unique_rows_is_numpys_unique_over_rows(seed):
         values, first, inverse = np.unique(v, axis=0, return_index=True, return_inverse=True)
         got_first, got_inverse = unique_rows(v)
         assert np.array_equal(v[got_first], values)  # the same rows, in the same order
+        assert np.array_equal(got_first, first)  # each one's first occurrence
         assert np.array_equal(got_inverse, inverse.ravel())
 
 
