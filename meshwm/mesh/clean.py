@@ -40,6 +40,7 @@ from meshwm._validate import DEFAULT_MAX_FACES, check_mesh
 from meshwm.errors import MeshError
 from meshwm.mesh.edges import (
     _hashed_groups,
+    distinct_rows,
     edge_topology_counts,
     euler_characteristic,
     uniform_smoothing_operator,
@@ -91,15 +92,11 @@ def _merge_exact_duplicates(
     """Merge vertices with bit-identical positions; keep the first occurrence's order."""
     # -0.0 and 0.0 are the same position: normalise before comparing bytes.
     v = vertices + 0.0
-    first, inverse = _hashed_groups(v)
+    # Numbered in order of first appearance, so the result keeps the input order.
+    first, inverse = distinct_rows(v)
     if len(first) == len(v):
         return vertices, faces, 0
-    # Renumber unique rows in order of first appearance so the result keeps the input order.
-    order = np.argsort(first, kind="stable")
-    rank = np.empty_like(order)
-    rank[order] = np.arange(len(order))
-    new_index = rank[inverse]
-    return vertices[first[order]], new_index[faces], len(v) - len(first)
+    return vertices[first], inverse[faces], len(v) - len(first)
 
 
 def _drop_bad_faces(
