@@ -11,8 +11,8 @@ decode whose CRC-32 matches).  Then each mesh is marked with an id (its mesh kep
 key.  Prints a table (detections, valid ids, smallest p-value x hypotheses) and exits 1 if
 anything is detected.
 
-    python scripts/null_keep.py [--keys 350] [--wrong-keys 50] [--readers radial ...]
-        [--jobs 2] [--out FILE]
+    python scripts/null_keep.py [--keys 350] [--wrong-keys 50] [--first-key 0]
+        [--readers radial ...] [--jobs 2] [--out FILE]
 """
 
 from __future__ import annotations
@@ -51,9 +51,9 @@ def _trial(decoder: Decoder, key: str, ident: bytes) -> dict[str, Any]:
     }
 
 
-def run_mesh(task: tuple[str, int, int, tuple[str, ...] | None]) -> list[dict[str, Any]]:
-    """Every trial on one mesh (a worker)."""
-    name, keys, wrong, readers = task
+def run_mesh(task: tuple[str, int, int, tuple[str, ...] | None, int]) -> list[dict[str, Any]]:
+    """Every trial on one mesh (a worker); keys and ids numbered from ``first``."""
+    name, keys, wrong, readers, first = task
     v, f = read_mesh(MESHES / f"{name}.ply")
     variants = {
         "as given": (v, f),
@@ -72,7 +72,7 @@ def run_mesh(task: tuple[str, int, int, tuple[str, ...] | None]) -> list[dict[st
             continue
         trials = [
             _trial(decoder, _derived("key", name, label, i).hex(), _derived("id", i)[:8])
-            for i in range(keys)
+            for i in range(first, first + keys)
         ]
         rows.append(_summary(name, f"unmarked, {label}", trials, t0))
     t0 = time.perf_counter()
@@ -83,7 +83,10 @@ def run_mesh(task: tuple[str, int, int, tuple[str, ...] | None]) -> list[dict[st
         rows.append({"mesh": name, "case": "marked", "error": f"{type(exc).__name__}: {exc}"})
         return rows
     decoder = Decoder(marked.vertices, marked.faces, readers=readers)
-    trials = [_trial(decoder, _derived("wrong", name, j).hex(), ident) for j in range(wrong)]
+    trials = [
+        _trial(decoder, _derived("wrong", name, j).hex(), ident)
+        for j in range(first, first + wrong)
+    ]
     rows.append(_summary(name, "marked, wrong keys", trials, t0))
     return rows
 
@@ -106,12 +109,20 @@ def main() -> int:
     parser.add_argument("--keys", type=int, default=350)
     parser.add_argument("--wrong-keys", type=int, default=50)
     parser.add_argument("--readers", nargs="+", help="only these readers (default: all)")
+    parser.add_argument(
+        "--first-key",
+        type=int,
+        default=0,
+        help="number keys (and wrong keys) from here: runs with disjoint ranges add up",
+    )
     parser.add_argument("--jobs", type=int, default=2)
     parser.add_argument("--out", type=Path)
     args = parser.parse_args()
     t0 = time.perf_counter()
     readers = tuple(args.readers) if args.readers else None
-    tasks = [(name, args.keys, args.wrong_keys, readers) for name in args.meshes]
+    if min(args.keys, args.wrong_keys, args.first_key) < 0:
+        parser.error("--keys, --wrong-keys and --first-key must be >= 0")
+    tasks = [(name, args.keys, args.wrong_keys, readers, args.first_key) for name in args.meshes]
     with ProcessPoolExecutor(args.jobs) as pool:
         rows = [row for result in pool.map(run_mesh, tasks) for row in result]
     lines = [
