@@ -120,8 +120,8 @@ def main() -> int:
     args = parser.parse_args()
     t0 = time.perf_counter()
     readers = tuple(args.readers) if args.readers else None
-    if min(args.keys, args.wrong_keys, args.first_key) < 0:
-        parser.error("--keys, --wrong-keys and --first-key must be >= 0")
+    if min(args.keys, args.wrong_keys) < 1 or args.first_key < 0:
+        parser.error("--keys and --wrong-keys must be >= 1, --first-key >= 0")
     tasks = [(name, args.keys, args.wrong_keys, readers, args.first_key) for name in args.meshes]
     with ProcessPoolExecutor(args.jobs) as pool:
         rows = [row for result in pool.map(run_mesh, tasks) for row in result]
