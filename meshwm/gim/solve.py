@@ -1,18 +1,21 @@
-"""Sparse symmetric positive (semi-)definite solves whose cost stays linear in the mesh.
+"""Sparse symmetric positive (semi-)definite solves whose cost stays near-linear in the mesh.
 
 The maps (:mod:`meshwm.gim.tutte`, :mod:`meshwm.gim.parameterize`) and the transfer
-(:mod:`meshwm.gim.transfer`) solve graph-Laplacian-like systems.  libigl's sparse Cholesky
-(Eigen's simplicial LLᵀ with an AMD ordering) is the fastest here on small meshes, but its
-fill-in grows faster than the mesh: measured on igea's Tutte system (one shared machine under
-load, so slow in absolute terms), 135k unknowns 2.2-3.3 s, 538k 24-40 s (×11-12 for ×4).
-CHOLMOD through ``cholespy`` grows alike (3.8 s, 21 s).  Algebraic multigrid (PyAMG's
-smoothed-aggregation hierarchy as the preconditioner of conjugate gradients) grows linearly
+(:mod:`meshwm.gim.transfer`) solve graph-Laplacian-like systems.  Measured on igea's systems
+(``scripts/bench_solve.py``; 134k, 537k and 2.1M unknowns): libigl's sparse Cholesky (Eigen's
+*simplicial* LLᵀ, AMD ordering) factors the Tutte system in 0.9 s at 134k but grows fast (24-40 s
+at 537k); the transfer's normal equations take it 1.3-1.9 s at 134k.  CHOLMOD's *supernodal*
+factorisation (dense BLAS on the supernodes; the copy of CHOLMOD that CVXOPT ships in its wheels,
+the one packaged with a BLAS for every platform) does the same work in 0.3-0.5 s at 134k and
+3.9 s at 537k, against 8.6 s for multigrid; at 2.1M it is no faster than multigrid (23.6 s
+against 24.0 s) and needs 4.4 GB.  Algebraic multigrid (PyAMG's smoothed-aggregation hierarchy
+as the preconditioner of conjugate gradients) grows linearly in time and memory
 (see :func:`_hierarchy`).
 
-So: up to :data:`DIRECT_LIMIT` unknowns the direct factorisation, as before (the results there
-are bit for bit those of earlier versions); above it AMG-preconditioned conjugate gradients.
-Both are deterministic functions of the matrix and the right-hand side, so an embedder and a
-blind reader that build the same system get the same solution bit for bit.
+So: up to :data:`DIRECT_LIMIT` unknowns the supernodal Cholesky factorisation; above it
+AMG-preconditioned conjugate gradients.  Both are deterministic functions of the matrix and the
+right-hand side (the supernodal solve gives the same bits with 1 or 2 BLAS threads), so an
+embedder and a blind reader that build the same system get the same solution bit for bit.
 """
 
 from __future__ import annotations
@@ -26,8 +29,10 @@ from numpy.typing import NDArray
 
 __all__ = ["DIRECT_LIMIT", "SpdSolver", "solve_with_fixed"]
 
-#: The most unknowns solved by the direct factorisation; larger systems use multigrid.
-DIRECT_LIMIT = 250_000
+#: The most unknowns solved by the direct factorisation; larger systems use multigrid (CHOLMOD's
+#: factor of a 2.1M-vertex Laplacian is no faster than multigrid and takes 4.4 GB; 1M would
+#: break issue 16's 2 GB at 1M vertices).
+DIRECT_LIMIT = 600_000
 #: Relative residual the multigrid solves reach (the maps: well below a 4096-grid's sample).
 TOLERANCE = 1e-10
 _MAXITER = 400
@@ -53,6 +58,38 @@ def _hierarchy(matrix: sp.csr_matrix) -> Any:
         presmoother=symmetric,
         postsmoother=symmetric,
     )
+
+
+class _Cholesky:
+    """CHOLMOD's supernodal LLᵀ of a symmetric positive definite matrix (through CVXOPT)."""
+
+    def __init__(self, matrix: sp.spmatrix) -> None:
+        import cvxopt
+        from cvxopt import cholmod
+
+        lower = sp.csc_matrix(sp.tril(matrix, format="csc"))
+        lower.sum_duplicates()
+        lower.sort_indices()
+        n = lower.shape[0]
+        columns = np.repeat(np.arange(n, dtype=np.int64), np.diff(lower.indptr))
+        self._matrix = cvxopt.spmatrix(
+            cvxopt.matrix(np.asarray(lower.data, dtype=np.float64)),
+            cvxopt.matrix(np.asarray(lower.indices, dtype=np.int64)),
+            cvxopt.matrix(columns),
+            (n, n),
+        )
+        cholmod.options["supernodal"] = 2  # CHOLMOD_AUTO: supernodal where it pays
+        cholmod.options["postorder"] = True
+        self._factor = cholmod.symbolic(self._matrix, uplo="L")
+        cholmod.numeric(self._matrix, self._factor)  # ArithmeticError: not positive definite
+
+    def solve(self, rhs: NDArray[np.float64]) -> NDArray[np.float64]:
+        import cvxopt
+        from cvxopt import cholmod
+
+        b = cvxopt.matrix(np.asfortranarray(rhs, dtype=np.float64))
+        cholmod.solve(self._factor, b)
+        return np.array(b, dtype=np.float64).reshape(rhs.shape)
 
 
 def _amg_solve(
@@ -101,37 +138,52 @@ def solve_with_fixed(
     Examples
     --------
     >>> q = sp.csr_matrix(np.array([[1.0, -1, 0], [-1, 2, -1], [0, -1, 1]]))
-    >>> solve_with_fixed(q, np.array([0, 2]), np.array([[0.0], [1.0]])).ravel().tolist()
+    >>> solve_with_fixed(q, np.array([0, 2]), np.array([[0.0], [1.0]])).ravel().round(12).tolist()
     [0.0, 0.5, 1.0]
     """
     n = quadratic.shape[0]
     fixed = np.asarray(fixed, dtype=np.int64)
     values = np.asarray(values, dtype=np.float64)
     columns = values.shape[1]
-    if n - len(fixed) <= DIRECT_LIMIT:
-        return np.asarray(
-            igl.min_quad_with_fixed(
-                sp.csc_matrix(quadratic),
-                np.zeros((n, columns)),
-                fixed,
-                values,
-                sp.csc_matrix((0, n)),
-                np.zeros((0, columns)),
-                True,
-            ),
-            dtype=np.float64,
-        )
     free = np.ones(n, dtype=bool)
     free[fixed] = False
     index = np.flatnonzero(free)
     q = sp.csr_matrix(quadratic)
     q_free = q[index]
-    rhs = -np.asarray(q_free[:, fixed] @ values)
-    start = None if guess is None else np.asarray(guess, dtype=np.float64)[index]
+    rhs = -np.asarray(q_free[:, fixed] @ values).reshape(len(index), columns)
     x = np.empty((n, columns))
     x[fixed] = values
+    if len(index) == 0:
+        return x
+    if len(index) <= DIRECT_LIMIT:
+        try:
+            x[index] = _Cholesky(q_free[:, index]).solve(rhs)
+            return x
+        except ArithmeticError:  # semi-definite (a free vertex on no edge): as libigl did
+            return _igl_with_fixed(quadratic, fixed, values)
+    start = None if guess is None else np.asarray(guess, dtype=np.float64)[index]
     x[index] = _amg_solve(_hierarchy(q_free[:, index]), rhs, guess=start, tol=tol, maxiter=_MAXITER)
     return x
+
+
+def _igl_with_fixed(
+    quadratic: sp.spmatrix, fixed: NDArray[np.int64], values: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """libigl's ``min_quad_with_fixed`` (its factorisation copes with a semi-definite block)."""
+    n = quadratic.shape[0]
+    columns = values.shape[1]
+    return np.asarray(
+        igl.min_quad_with_fixed(
+            sp.csc_matrix(quadratic),
+            np.zeros((n, columns)),
+            fixed,
+            values,
+            sp.csc_matrix((0, n)),
+            np.zeros((0, columns)),
+            True,
+        ),
+        dtype=np.float64,
+    )
 
 
 class SpdSolver:
@@ -161,14 +213,10 @@ class SpdSolver:
         self._factor: Any = None
         self._hierarchy: Any = None
         if n <= DIRECT_LIMIT:
-            self._factor = igl.min_quad_with_fixed_data()
-            igl.min_quad_with_fixed_precompute(
-                sp.csc_matrix(matrix),
-                np.zeros(0, dtype=np.int64),
-                sp.csc_matrix((0, n)),
-                True,
-                self._factor,
-            )
+            try:
+                self._factor = _Cholesky(matrix)
+            except ArithmeticError:  # not numerically definite: conjugate gradients cope
+                self._hierarchy = _hierarchy(sp.csr_matrix(matrix))
         else:
             self._hierarchy = _hierarchy(sp.csr_matrix(matrix))
 
@@ -176,7 +224,5 @@ class SpdSolver:
         """``A⁻¹ rhs`` for ``rhs`` of shape (n, c)."""
         rhs = np.asarray(rhs, dtype=np.float64)
         if self._factor is not None:
-            none = np.zeros((0, rhs.shape[1]))
-            # igl minimises ½ xᵀAx + xᵀB: B = -rhs gives A x = rhs.
-            return np.asarray(igl.min_quad_with_fixed_solve(self._factor, -rhs, none, none))
+            return self._factor.solve(rhs)
         return _amg_solve(self._hierarchy, rhs, guess=None, tol=self._tol, maxiter=self._maxiter)
