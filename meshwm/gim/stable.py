@@ -68,6 +68,7 @@ __all__ = [
     "StableCut",
     "canonical_labelling",
     "cut_start",
+    "nudge_start",
     "smoothed_copy",
     "stable_cut",
 ]
@@ -142,12 +143,61 @@ def smoothed_copy(
     if not 0.0 < lam <= 1.0:
         raise ValueError(f"lam must be in (0, 1], got {lam!r}")
     v = np.array(vertices, dtype=np.float64)
-    operator, has_neighbours = uniform_smoothing_operator(len(v), np.asarray(faces, np.int64))
-    # One step as one matrix: (1 - lam) v + lam M v where a vertex has neighbours, else v.
-    step = (sp.diags(np.where(has_neighbours, 1.0 - lam, 1.0)) + lam * operator).tocsr()
+    step = _smoothing_step(len(v), np.asarray(faces, np.int64), lam)
     for _ in range(int(steps)):
         v = step @ v
     return v
+
+
+def _smoothing_step(n: int, faces: NDArray[np.int64], lam: float) -> sp.csr_matrix:
+    """One step as one matrix: (1 - lam) v + lam M v where a vertex has neighbours, else v."""
+    operator, has_neighbours = uniform_smoothing_operator(n, faces)
+    return sp.csr_matrix(sp.diags(np.where(has_neighbours, 1.0 - lam, 1.0)) + lam * operator)
+
+
+def nudge_start(
+    vertices: NDArray[np.float64],
+    faces: NDArray[np.int64],
+    source: int,
+    *,
+    margin: float,
+    steps: int = 50,
+    lam: float = 0.5,
+) -> NDArray[np.float64] | None:
+    """The least-norm displacement that makes ``source`` the farthest vertex of the smoothed
+    copy again, ahead of the current farthest by ``margin`` of its distance (to first order).
+
+    The smoothed copy is linear in the vertices, ``s = P v`` (:func:`smoothed_copy`), so the
+    gap ``g·s`` between the two distances to the centroid (``g``: the unit directions, ``+`` at
+    ``source`` and ``-`` at the rival) moves by ``g·P δ``, and the least ``δ`` moving it by
+    ``Δ`` is ``Δ Pᵀg / |Pᵀg|²``: a smooth bump around the two vertices.  The embedder uses it
+    where its mark tipped a near-tie of the cut's start (:func:`cut_start`), so that the marked
+    mesh keeps the input's cut and map.
+
+    Returns
+    -------
+    (n, 3) float64 ndarray or None
+        None where ``source`` is already the farthest by ``margin``.
+    """
+    vertices = np.asarray(vertices, dtype=np.float64)
+    faces = np.asarray(faces, dtype=np.int64)
+    smooth, _, _ = _smoothed_sources(vertices, faces, steps=steps, lam=lam)
+    offset = smooth - area_centroid(smooth, faces)
+    radial = np.linalg.norm(offset, axis=1)
+    others = radial.copy()
+    others[source] = -np.inf
+    rival = int(np.argmax(others))
+    deficit = radial[rival] - (1.0 - margin) * radial[source]
+    if deficit <= 0 or radial[source] <= 0 or radial[rival] <= 0:
+        return None
+    g = np.zeros_like(vertices)
+    g[source] = offset[source] / radial[source]
+    g[rival] = -offset[rival] / radial[rival]
+    step_t = _smoothing_step(len(vertices), faces, lam).T.tocsr()
+    for _ in range(int(steps)):
+        g = step_t @ g
+    norm2 = float((g * g).sum())
+    return None if norm2 <= 0 else (deficit / norm2) * g
 
 
 class _Rotation(NamedTuple):

@@ -32,6 +32,7 @@ from meshwm._validate import DEFAULT_MAX_FACES, check_mesh
 from meshwm.errors import MeshError
 from meshwm.gim.holes import boundary_loops, fill_holes
 from meshwm.gim.sampling import sampling_matrix
+from meshwm.gim.stable import cut_start, nudge_start
 from meshwm.gim.tutte import StableMap, restart_map, stable_parameterize
 from meshwm.mesh.clean import clean_mesh
 from meshwm.mesh.edges import distinct_rows
@@ -41,6 +42,7 @@ __all__ = [
     "SURFACE_SIZES",
     "Surface",
     "SurfaceImage",
+    "keep_start",
     "remap_surface",
     "same_cleaning",
     "sample_surface",
@@ -250,6 +252,57 @@ def remap_surface(
     return surface._replace(positions=p, map=smap)
 
 
+def keep_start(
+    surface: Surface,
+    positions: NDArray[np.float64],
+    *,
+    margin: float = 1e-5,
+    rounds: int = 4,
+) -> NDArray[np.float64] | None:
+    """The displacement of ``positions`` (moved distinct positions of ``surface``) after which
+    the map's cut keeps ``surface``'s start, or None where that fails.
+
+    The cut and the map depend on the geometry only through the start, the farthest vertex of a
+    smoothed copy (:func:`meshwm.gim.stable.cut_start`); where the input's farthest vertex is a
+    near-tie, the mark can tip it, and the marked mesh's map is then another one.  Each round
+    adds the least-norm smooth bump that puts the input's source back ahead by ``margin``
+    (:func:`meshwm.gim.stable.nudge_start`), then checks the start as a reader computes it.
+
+    Returns
+    -------
+    (p, 3) float64 ndarray or None
+        The displacement to add (zeros where the start is already kept), or None: the start is
+        not kept within ``rounds`` (its first edge moved, or the bumps do not converge).
+    """
+    k = len(surface.clean_to_position)
+    cut = surface.map.cut
+    filled_faces = cut.mesh.origin[cut.mesh.faces]
+    clean_faces = filled_faces[np.all(filled_faces < k, axis=1)]
+    want = (int(cut.order[0]), int(cut.order[1]))
+    p = np.asarray(positions, dtype=np.float64)
+    bump = np.zeros_like(p)
+    for round_ in range(rounds + 1):
+        points, faces = _filled((p + bump)[surface.clean_to_position], clean_faces)
+        if not np.array_equal(faces, filled_faces):
+            return None
+        if cut_start(points, faces)[0] == want:
+            return bump
+        push = None if round_ == rounds else nudge_start(points, faces, want[0], margin=margin)
+        if push is None:
+            return None
+        bump[surface.clean_to_position] += push[:k]
+    return None
+
+
+def _filled(
+    vertices: NDArray[np.float64], faces: NDArray[np.int64]
+) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+    """A cleaned component's points and faces with its holes filled (:func:`_map_filled`)."""
+    filled = fill_holes(vertices, faces, boundary_loops(faces))
+    points = np.concatenate([vertices, filled.centres]) if len(filled.centres) else vertices
+    return points, filled.faces
+
+
 def _map_filled(
     vertices: NDArray[np.float64],
     faces: NDArray[np.int64],
@@ -264,15 +317,14 @@ def _map_filled(
     with a fan to a centre vertex, so it becomes an island inside the map (its grid points are
     not covered).  Which loops are filled depends only on the border's geometry.
     """
-    filled = fill_holes(vertices, faces, boundary_loops(faces))
-    points = np.concatenate([vertices, filled.centres]) if len(filled.centres) else vertices
+    points, filled_faces = _filled(vertices, faces)
     if like is not None:
         same = like.cut.mesh.origin[like.cut.mesh.faces]
-        if np.array_equal(same, filled.faces):
-            reused = restart_map(like, points, filled.faces, rank=rank)
+        if np.array_equal(same, filled_faces):
+            reused = restart_map(like, points, filled_faces, rank=rank)
             if reused is not None:
                 return reused
-    return stable_parameterize(points, filled.faces, rank=rank)
+    return stable_parameterize(points, filled_faces, rank=rank)
 
 
 def sample_surface(surface: Surface, *, size: int) -> SurfaceImage:

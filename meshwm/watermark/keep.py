@@ -30,7 +30,14 @@ from trimesh.triangles import closest_point
 from meshwm.errors import CapacityError, MeshError
 from meshwm.gim.sampling import Sampling
 from meshwm.gim.sphere import point_set
-from meshwm.gim.surface import SURFACE_SIZES, Surface, SurfaceImage, sample_surface, surface_of
+from meshwm.gim.surface import (
+    SURFACE_SIZES,
+    Surface,
+    SurfaceImage,
+    keep_start,
+    sample_surface,
+    surface_of,
+)
 from meshwm.gim.transfer import Transfer
 from meshwm.params import WatermarkParams
 from meshwm.profiles import get_profile
@@ -369,6 +376,7 @@ def _mark_at(
     else:
         opts = options
     d, rep = run(opts, until_read=True)
+    d, report["start"] = _keep_start(surface, d)
     d, radial = _carry_radial(positions, surface.inverse[faces_in], faces, d, bits, key=key)
     report.update(radial)
     peak = surface_peak(positions, faces, d)
@@ -378,6 +386,19 @@ def _mark_at(
     report["peak"] = peak
     report["ber"], report["confidence"] = read(d)
     return _Attempt(d, report)
+
+
+def _keep_start(surface: Surface, d: NDArray[np.float64]) -> tuple[NDArray[np.float64], str]:
+    """``d`` with a smooth bump where the mark tipped the cut's start (see
+    :func:`meshwm.gim.surface.keep_start`): the marked mesh then has the input's cut and map,
+    which a blind reader re-derives first.  Where that fails ``d`` is kept (a reader then finds
+    the mark through the runner-up starts it tries, and the embedder's read-back checks it)."""
+    bump = keep_start(surface, surface.positions + d)
+    if bump is None:
+        return d, "moved"
+    if not bump.any():
+        return d, "kept"
+    return d + bump, "nudged"
 
 
 def embed_kept(

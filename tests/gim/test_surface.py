@@ -5,7 +5,15 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from meshwm.gim.surface import SURFACE_RANKS, remap_surface, sample_surface, surface_of
+from meshwm.gim.stable import nudge_start, smoothed_copy
+from meshwm.gim.surface import (
+    SURFACE_RANKS,
+    _filled,
+    keep_start,
+    remap_surface,
+    sample_surface,
+    surface_of,
+)
 
 
 def _same(a, b) -> None:
@@ -61,3 +69,39 @@ def test_a_map_passed_to_remap_changes_nothing_at_any_rank(request, name):
             _same(hinted, fresh)
             reused += hinted.map.uv is base.map.uv
     assert reused >= 3  # the input's own start, at least (rank 0 after a mark-sized move)
+
+
+def _start(surface):
+    return tuple(int(x) for x in surface.map.cut.order[:2])
+
+
+@pytest.mark.parametrize("name", ["spot_mesh", "plane_mesh"])
+def test_keep_start_puts_a_tipped_start_back_with_a_small_smooth_bump(request, name):
+    v, f = request.getfixturevalue(name)
+    base = surface_of(v, f)
+    diag = np.linalg.norm(v.max(axis=0) - v.min(axis=0))
+    assert not keep_start(base, base.positions).any()  # the input's own start: nothing to add
+    k = len(base.clean_to_position)
+    cut = base.map.cut
+    filled = cut.mesh.origin[cut.mesh.faces]
+    points, faces = _filled(base.positions[base.clean_to_position], filled[(filled < k).all(1)])
+    np.testing.assert_array_equal(faces, filled)
+    smooth = smoothed_copy(points, faces)
+    radial = np.linalg.norm(smooth - smooth.mean(axis=0), axis=1)
+    rng = np.random.default_rng(3)
+    tipped = 0
+    for rival in rng.choice(np.argsort(-radial)[1:12], size=3, replace=False):
+        # Tip the start to another vertex near the top, as a mark can.
+        tip = nudge_start(points, faces, int(rival), margin=1e-5)
+        if tip is None:
+            continue
+        moved = base.positions.copy()
+        moved[base.clean_to_position] += tip[:k]
+        moved_start = _start(surface_of(moved[base.inverse], f))
+        assert moved_start != _start(base)
+        bump = keep_start(base, moved)
+        assert bump is not None
+        assert _start(surface_of((moved + bump)[base.inverse], f)) == _start(base)
+        assert np.abs(bump).max() <= 2 * np.abs(tip).max() + 1e-3 * diag
+        tipped += 1
+    assert tipped >= 2

@@ -198,3 +198,18 @@ def test_a_symmetric_shape_is_refused_with_the_reason():
     sphere = trimesh.creation.icosphere(subdivisions=4)  # 2562 vertices, all tied for the start
     with pytest.raises(CapacityError, match="symmetric shape"):
         embed(np.asarray(sphere.vertices), np.asarray(sphere.faces), key=KEY, ident=IDENT)
+
+
+def test_the_marked_mesh_keeps_the_inputs_cut_start(spot_mesh):
+    # spot's two farthest vertices are 8e-6 of the radius apart: the mark alone can tip them,
+    # and the embedder then puts the start back, so a reader's first map is the embedder's.
+    v, f = spot_mesh
+    before = surface_of(v, f)
+    seen = set()
+    for key in ("k0", "k2"):  # (with these keys: tipped and put back; not tipped)
+        marked = embed(v, f, key=key, ident=bytes(8), distances=False)
+        seen.add(marked.report["start"])
+        after = surface_of(marked.vertices, f)
+        np.testing.assert_array_equal(after.map.cut.order[:2], before.map.cut.order[:2])
+        np.testing.assert_array_equal(after.map.uv, before.map.uv)
+    assert seen == {"nudged", "kept"}
