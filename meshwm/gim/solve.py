@@ -20,12 +20,16 @@ embedder and a blind reader that build the same system get the same solution bit
 
 from __future__ import annotations
 
+import threading
+from collections import OrderedDict
 from typing import Any
 
 import igl
 import numpy as np
 import scipy.sparse as sp
 from numpy.typing import NDArray
+
+from meshwm._digest import arrays_key
 
 __all__ = ["DIRECT_LIMIT", "SpdSolver", "solve_with_fixed"]
 
@@ -60,6 +64,15 @@ def _hierarchy(matrix: sp.csr_matrix) -> Any:
     )
 
 
+#: The fill-reducing orderings of the last few sparsity patterns factorised (by a digest of the
+#: pattern): the stretch reweighting of a map factors one pattern with new weights up to 8
+#: times, and CHOLMOD's analysis with a given ordering costs a third of finding one (537k
+#: unknowns: 0.27 s against 0.8-1.1 s) and gives the same factor bit for bit.
+_ORDERINGS: OrderedDict[tuple, NDArray[np.int64]] = OrderedDict()
+_ORDERINGS_SIZE = 4
+_CHOLMOD_LOCK = threading.Lock()
+
+
 class _Cholesky:
     """CHOLMOD's supernodal LLᵀ of a symmetric positive definite matrix (through CVXOPT)."""
 
@@ -78,10 +91,28 @@ class _Cholesky:
             cvxopt.matrix(columns),
             (n, n),
         )
-        cholmod.options["supernodal"] = 2  # CHOLMOD_AUTO: supernodal where it pays
-        cholmod.options["postorder"] = True
-        self._factor = cholmod.symbolic(self._matrix, uplo="L")
+        key = arrays_key(lower.indptr, lower.indices)
+        with _CHOLMOD_LOCK:  # CVXOPT's options are module-wide
+            ordering = _ORDERINGS.get(key)
+            cholmod.options["supernodal"] = 2  # CHOLMOD_AUTO: supernodal where it pays
+            cholmod.options["postorder"] = True
+            if ordering is None:
+                cholmod.options["nmethods"] = 0  # CHOLMOD's default choice of ordering
+                self._factor = cholmod.symbolic(self._matrix, uplo="L")
+            else:
+                cholmod.options["nmethods"] = 1  # the given ordering only
+                self._factor = cholmod.symbolic(self._matrix, p=cvxopt.matrix(ordering), uplo="L")
+                cholmod.options["nmethods"] = 0
         cholmod.numeric(self._matrix, self._factor)  # ArithmeticError: not positive definite
+        if ordering is None:
+            # The ordering chosen: P applied to 0 .. n-1 (exact in float64).
+            at = cvxopt.matrix(np.arange(n, dtype=np.float64))
+            cholmod.solve(self._factor, at, sys=7)
+            found = np.array(at, dtype=np.float64).ravel().astype(np.int64)
+            with _CHOLMOD_LOCK:
+                _ORDERINGS[key] = found
+                while len(_ORDERINGS) > _ORDERINGS_SIZE:
+                    _ORDERINGS.popitem(last=False)
 
     def solve(self, rhs: NDArray[np.float64]) -> NDArray[np.float64]:
         import cvxopt

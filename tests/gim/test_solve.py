@@ -36,3 +36,30 @@ def test_spd_solver_solves(limit, monkeypatch):
     rhs = rng.normal(size=(n, 3))
     x = solve.SpdSolver(matrix, tol=1e-12).solve(rhs)
     np.testing.assert_allclose(matrix @ x, rhs, atol=1e-9)
+
+
+def test_a_pattern_factored_again_reuses_its_ordering_and_gives_the_same_bits(spot_mesh):
+    # The stretch reweighting factors one pattern with new weights: the ordering found the
+    # first time is reused, and the solution is the one a fresh analysis gives, bit for bit.
+    import scipy.sparse as sp
+
+    from meshwm.gim.transfer import uniform_laplacian
+
+    v, f = spot_mesh
+    n = len(v)
+    lap = uniform_laplacian(f, n)
+    rng = np.random.default_rng(2)
+    rhs = rng.normal(size=(n, 2))
+    solve._ORDERINGS.clear()
+    first = solve._Cholesky(lap.T @ lap + sp.identity(n)).solve(rhs)
+    assert len(solve._ORDERINGS) == 1
+    for _ in range(3):
+        weights = sp.diags(rng.uniform(0.5, 2.0, size=n))
+        matrix = lap.T @ weights @ lap + sp.identity(n)
+        again = solve._Cholesky(matrix).solve(rhs)  # the ordering reused
+        assert len(solve._ORDERINGS) == 1
+        solve._ORDERINGS.clear()
+        fresh = solve._Cholesky(matrix).solve(rhs)
+        np.testing.assert_array_equal(again, fresh)
+        np.testing.assert_allclose(matrix @ again, rhs, atol=1e-9)
+    assert not np.array_equal(first, again)
