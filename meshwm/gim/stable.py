@@ -54,7 +54,7 @@ import igl
 import numpy as np
 import scipy.sparse as sp
 from numpy.typing import NDArray
-from scipy.sparse.csgraph import connected_components
+from scipy.sparse.csgraph import connected_components, reverse_cuthill_mckee
 
 from meshwm._digest import arrays_key
 from meshwm.errors import MeshError
@@ -143,10 +143,66 @@ def smoothed_copy(
     if not 0.0 < lam <= 1.0:
         raise ValueError(f"lam must be in (0, 1], got {lam!r}")
     v = np.array(vertices, dtype=np.float64)
-    step = _smoothing_step(len(v), np.asarray(faces, np.int64), lam)
-    for _ in range(int(steps)):
-        v = step @ v
-    return v
+    faces = np.asarray(faces, dtype=np.int64)
+    key = (*arrays_key(faces), len(v), float(lam))
+    with _MEMO_LOCK:
+        local = _STEP_MEMO.get(key)
+    if local is None:
+        local = _localised(_smoothing_step(len(v), faces, lam))
+        if len(v) <= _STEP_MEMO_ROWS:
+            with _MEMO_LOCK:
+                _STEP_MEMO.clear()
+                _STEP_MEMO[key] = local
+    return _repeat(local, v, int(steps))
+
+
+#: The last mesh's smoothing step (renumbered, :func:`_localised`): the embedder smooths one
+#: connectivity four or five times (the input, the start's checks, the read-back).  Kept only
+#: up to this many vertices (at 5M the step alone is 0.4 GB).
+_STEP_MEMO: dict[tuple, tuple[NDArray[np.int64] | None, sp.csr_matrix]] = {}
+_STEP_MEMO_ROWS = 2_000_000
+
+
+#: Above this many rows, :func:`_repeat` renumbers the rows for locality first.
+_LOCAL_ROWS = 50_000
+
+
+def _localised(matrix: sp.csr_matrix) -> tuple[NDArray[np.int64] | None, sp.csr_matrix]:
+    """``matrix`` renumbered for locality (see :func:`_repeat`), and the new order (None: as
+    it was, at most :data:`_LOCAL_ROWS` rows)."""
+    n = matrix.shape[0]
+    if n <= _LOCAL_ROWS:
+        return None, matrix
+    order = reverse_cuthill_mckee(matrix, symmetric_mode=True).astype(np.int64)
+    rank = np.empty_like(order)
+    rank[order] = np.arange(n)
+    counts = np.diff(matrix.indptr)[order]
+    indptr = np.concatenate([[0], np.cumsum(counts)])
+    take = np.repeat(matrix.indptr[order] - indptr[:-1], counts) + np.arange(indptr[-1])
+    local = sp.csr_matrix((matrix.data[take], rank[matrix.indices[take]], indptr), shape=(n, n))
+    return order, local
+
+
+def _repeat(
+    localised: tuple[NDArray[np.int64] | None, sp.csr_matrix], x: NDArray[np.float64], times: int
+) -> NDArray[np.float64]:
+    """A matrix (as :func:`_localised` gives it) applied ``times`` times to ``x``: the same bits
+    as the plain loop over the matrix as it was.
+
+    A large mesh's vertex order scatters each row's neighbours over memory (a Loop-subdivided
+    mesh appends its new vertices); renumbered by reverse Cuthill-McKee, with each row's terms
+    kept in their order (so every sum adds the same terms in the same order), the products
+    read memory in order: 50 steps at 537k vertices 1.17 s → 0.58 s.
+    """
+    order, matrix = localised
+    y = x if order is None else x[order]
+    for _ in range(times):
+        y = matrix @ y
+    if order is None:
+        return y
+    out = np.empty_like(y)
+    out[order] = y
+    return out
 
 
 def _smoothing_step(n: int, faces: NDArray[np.int64], lam: float) -> sp.csr_matrix:
@@ -193,9 +249,7 @@ def nudge_start(
     g = np.zeros_like(vertices)
     g[source] = offset[source] / radial[source]
     g[rival] = -offset[rival] / radial[rival]
-    step_t = _smoothing_step(len(vertices), faces, lam).T.tocsr()
-    for _ in range(int(steps)):
-        g = step_t @ g
+    g = _repeat(_localised(_smoothing_step(len(vertices), faces, lam).T.tocsr()), g, int(steps))
     norm2 = float((g * g).sum())
     return None if norm2 <= 0 else (deficit / norm2) * g
 

@@ -262,3 +262,25 @@ def test_restart_map_is_the_map_of_the_moved_mesh(reference, name):
     assert reused >= 3
     # A start that moves (here: a different rank's) is not reused.
     assert restart_map(result, v, f, rank=1) is None
+
+
+def test_smoothing_a_large_mesh_in_local_order_gives_the_plain_loops_bits():
+    # Above _LOCAL_ROWS rows the steps run renumbered for locality: the same sums in the
+    # same order, so the same bits as the plain loop (the cut's start depends on them).
+    from meshwm.gim import stable
+    from meshwm.gim.code import grid_faces
+
+    n = 260
+    rng = np.random.default_rng(4)
+    faces = grid_faces(n)
+    shuffle = rng.permutation(n * n)  # a scattered vertex order, as subdivision leaves
+    faces = np.argsort(shuffle)[faces]
+    i, j = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
+    v = np.column_stack([i.ravel(), j.ravel(), np.sin(i.ravel() / 9.0)])[shuffle]
+    v = v + rng.normal(scale=0.01, size=v.shape)
+    assert len(v) > stable._LOCAL_ROWS
+    step = stable._smoothing_step(len(v), faces, 0.5)
+    plain = v.copy()
+    for _ in range(50):
+        plain = step @ plain
+    np.testing.assert_array_equal(stable.smoothed_copy(v, faces), plain)
