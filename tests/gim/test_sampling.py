@@ -102,3 +102,21 @@ def test_a_non_integer_size_raises_a_type_error():
 def test_a_negative_tolerance_raises():
     with pytest.raises(ValueError, match="tolerance"):
         sampling_matrix(np.eye(3)[:, :2], np.array([[0, 1, 2]]), 4, tolerance=-1.0)
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_only_triangles_near_grid_points_are_searched_and_nothing_is_lost(seed):
+    # Many small triangles, some beyond the unit square, most holding no grid point: every
+    # grid point inside the triangulation is covered and interpolates to itself.
+    from scipy.spatial import Delaunay
+
+    rng = np.random.default_rng(seed)
+    uv = rng.uniform(0.03, 1.2, size=(3000, 2))  # the grid's first row and column uncovered
+    faces = Delaunay(uv).simplices.astype(np.int64)
+    n = 17
+    s = sampling_matrix(uv, faces, n)
+    points = grid_points(n)
+    inside = Delaunay(uv).find_simplex(points) >= 0
+    assert 0 < inside.sum() < len(points)
+    np.testing.assert_array_equal(s.covered.ravel(), inside)
+    np.testing.assert_allclose((s.matrix @ uv)[inside], points[inside], atol=1e-12)
