@@ -281,8 +281,9 @@ def keep_start(
     want = (int(cut.order[0]), int(cut.order[1]))
     p = np.asarray(positions, dtype=np.float64)
     bump = np.zeros_like(p)
+    loops = boundary_loops(clean_faces)  # the connectivity's: the same every round
     for round_ in range(rounds + 1):
-        points, faces = _filled((p + bump)[surface.clean_to_position], clean_faces)
+        points, faces = _filled((p + bump)[surface.clean_to_position], clean_faces, loops)
         if not np.array_equal(faces, filled_faces):
             return None
         if cut_start(points, faces)[0] == want:
@@ -295,10 +296,13 @@ def keep_start(
 
 
 def _filled(
-    vertices: NDArray[np.float64], faces: NDArray[np.int64]
+    vertices: NDArray[np.float64],
+    faces: NDArray[np.int64],
+    loops: list[NDArray[np.int64]] | None = None,
 ) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
-    """A cleaned component's points and faces with its holes filled (:func:`_map_filled`)."""
-    filled = fill_holes(vertices, faces, boundary_loops(faces))
+    """A cleaned component's points and faces with its holes filled (:func:`_map_filled`);
+    ``loops``: its :func:`~meshwm.gim.holes.boundary_loops`, where known."""
+    filled = fill_holes(vertices, faces, boundary_loops(faces) if loops is None else loops)
     points = np.concatenate([vertices, filled.centres]) if len(filled.centres) else vertices
     return points, filled.faces
 
