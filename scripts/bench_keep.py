@@ -2,9 +2,11 @@
 
 For each mesh, as whole-process-free timings in one process (median of ``--repeat`` runs):
 
-- **floor**: reading the file (``meshwm.read_mesh``) plus one harmonic solve on the mesh
-  (``igl.harmonic`` with four fixed vertices, libigl's sparse Cholesky), the least any blind
-  map of the surface costs;
+- **floor**: reading the file (``meshwm.read_mesh``) plus one harmonic solve on the mesh with
+  four fixed vertices, the least any blind map of the surface costs, two ways: libigl's
+  (``igl.harmonic``, its simplicial sparse Cholesky) and meshwm's own solver
+  (:func:`meshwm.gim.solve.solve_with_fixed` on libigl's cotangent matrix: CHOLMOD's
+  supernodal Cholesky), the faster; the ratios are given to both;
 - **embed**: ``meshwm.embed(..., ident=...)`` with the mesh kept, without the MeshLab distances
   (a report, not part of marking), plus the read;
 - **extract**: reading the marked file and ``Decoder(...).extract_id(...)``.
@@ -28,6 +30,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from meshwm.gim.solve import solve_with_fixed
 from meshwm.mesh.io import read_mesh, write_mesh
 from meshwm.watermark import Decoder, embed
 
@@ -39,6 +42,13 @@ def _floor(path: Path) -> float:
     t0 = time.perf_counter()
     v, f = read_mesh(path)
     igl.harmonic(v, f, np.arange(4), np.eye(4)[:, :2], 1)
+    return time.perf_counter() - t0
+
+
+def _floor_own(path: Path) -> float:
+    t0 = time.perf_counter()
+    v, f = read_mesh(path)
+    solve_with_fixed(-igl.cotmatrix(v, f), np.arange(4), np.eye(4)[:, :2])
     return time.perf_counter() - t0
 
 
@@ -66,21 +76,26 @@ def main() -> None:
     parser.add_argument("--meshes", nargs="+", default=["igea"])
     parser.add_argument("--repeat", type=int, default=3)
     args = parser.parse_args()
-    print("| mesh | vertices | floor s | embed s | × floor | extract s | × floor |")
+    print(
+        "| mesh | vertices | floor s (libigl / own) | embed s | × floor (libigl / own) "
+        "| extract s | × floor (libigl / own) |"
+    )
     print("|---|---:|---:|---:|---:|---:|---:|")
     with tempfile.TemporaryDirectory() as tmp:
         for name in args.meshes:
             path = MESHES / f"{name}.ply"
             out = Path(tmp) / f"{name}.ply"
-            floor, emb, ext = [], [], []
-            for _ in range(args.repeat):  # interleaved, so a load spike hits all three alike
+            floor, own, emb, ext = [], [], [], []
+            for _ in range(args.repeat):  # interleaved, so a load spike hits all alike
                 floor.append(_floor(path))
+                own.append(_floor_own(path))
                 emb.append(_embed(path, out))
                 ext.append(_extract(out))
-            fl, em, ex = (statistics.median(x) for x in (floor, emb, ext))
+            fl, fo, em, ex = (statistics.median(x) for x in (floor, own, emb, ext))
             n = len(read_mesh(path)[0])
             print(
-                f"| {name} | {n} | {fl:.2f} | {em:.2f} | {em / fl:.2f} | {ex:.2f} | {ex / fl:.2f} |"
+                f"| {name} | {n} | {fl:.2f} / {fo:.2f} | {em:.2f} | {em / fl:.2f} / {em / fo:.2f} "
+                f"| {ex:.2f} | {ex / fl:.2f} / {ex / fo:.2f} |"
             )
 
 
