@@ -1,15 +1,16 @@
 """Sparse symmetric positive (semi-)definite solves whose cost stays near-linear in the mesh.
 
 The maps (:mod:`meshwm.gim.tutte`, :mod:`meshwm.gim.parameterize`) and the transfer
-(:mod:`meshwm.gim.transfer`) solve graph-Laplacian-like systems.  Measured on igea's systems
-(``scripts/bench_solve.py``; 134k, 537k and 2.1M unknowns): libigl's sparse Cholesky (Eigen's
-*simplicial* LLᵀ, AMD ordering) factors the Tutte system in 0.9 s at 134k but grows fast (24-40 s
-at 537k); the transfer's normal equations take it 1.3-1.9 s at 134k.  CHOLMOD's *supernodal*
-factorisation (dense BLAS on the supernodes; the copy of CHOLMOD that CVXOPT ships in its wheels,
-the one packaged with a BLAS for every platform) does the same work in 0.3-0.5 s at 134k and
-3.9 s at 537k, against 8.6 s for multigrid; at 2.1M it is no faster than multigrid (23.6 s
-against 24.0 s) and needs 4.4 GB.  Algebraic multigrid (PyAMG's smoothed-aggregation hierarchy
-as the preconditioner of conjugate gradients) grows linearly in time and memory
+(:mod:`meshwm.gim.transfer`) solve graph-Laplacian-like systems.  Measured with
+``scripts/bench_solve.py`` on igea's graph Laplacian with four vertices fixed (2026-12-03, one
+core busy; libigl / CHOLMOD / multigrid): 134k unknowns 1.96 / 0.52 / 1.49 s, 537k 31.0 / 3.2 /
+5.8 s; the transfer's normal equations 1.91 / 0.59 / 8.7 s and 26.0 / 3.1 / 56.6 s.  libigl's
+sparse Cholesky is Eigen's *simplicial* LLᵀ (AMD ordering), whose cost grows fast; CHOLMOD's
+*supernodal* factorisation does the same elimination with dense BLAS on the supernodes (the copy
+of CHOLMOD that CVXOPT ships in its wheels, the one packaged with a BLAS for every platform;
+scikit-sparse has no wheels).  At 2.1M unknowns it is no faster than multigrid (23.6 s against
+24.0 s) and needs 4.4 GB.  Algebraic multigrid (PyAMG's smoothed-aggregation hierarchy as the
+preconditioner of conjugate gradients) grows linearly in time and memory
 (see :func:`_hierarchy`).
 
 So: up to :data:`DIRECT_LIMIT` unknowns the supernodal Cholesky factorisation; above it
