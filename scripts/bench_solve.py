@@ -103,6 +103,9 @@ def main() -> None:
         return
     if not args.meshes:
         parser.error("give at least one mesh")
+    missing = [m for m in args.meshes if not Path(m).is_file()]
+    if missing:
+        parser.error(f"no such mesh file: {missing[0]}")
     print("| mesh | system | unknowns | solver | seconds | peak GB | residual |")
     print("|---|---|---:|---|---:|---:|---:|")
     for mesh in args.meshes:

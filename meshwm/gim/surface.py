@@ -245,9 +245,7 @@ def remap_surface(
         bit what the map would be without it (:func:`~meshwm.gim.tutte.restart_map`).
     """
     p = np.asarray(positions, dtype=np.float64)
-    k = len(surface.clean_to_position)
-    filled = surface.map.cut.mesh.origin[surface.map.cut.mesh.faces]
-    clean_faces = filled[np.all(filled < k, axis=1)]
+    _, clean_faces = _map_faces(surface)
     smap = _map_filled(p[surface.clean_to_position], clean_faces, rank=rank, like=like)
     return surface._replace(positions=p, map=smap)
 
@@ -276,8 +274,7 @@ def keep_start(
     """
     k = len(surface.clean_to_position)
     cut = surface.map.cut
-    filled_faces = cut.mesh.origin[cut.mesh.faces]
-    clean_faces = filled_faces[np.all(filled_faces < k, axis=1)]
+    filled_faces, clean_faces = _map_faces(surface)
     want = (int(cut.order[0]), int(cut.order[1]))
     p = np.asarray(positions, dtype=np.float64)
     bump = np.zeros_like(p)
@@ -293,6 +290,13 @@ def keep_start(
             return None
         bump[surface.clean_to_position] += push[:k]
     return None
+
+
+def _map_faces(surface: Surface) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """The faces the map was made of (holes filled, over the cleaned vertices and the fans'
+    centres) and, of those, the cleaned component's own (no centre)."""
+    filled = surface.map.cut.mesh.origin[surface.map.cut.mesh.faces]
+    return filled, filled[np.all(filled < len(surface.clean_to_position), axis=1)]
 
 
 def _filled(
