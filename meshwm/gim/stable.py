@@ -144,16 +144,24 @@ def smoothed_copy(
         raise ValueError(f"lam must be in (0, 1], got {lam!r}")
     v = np.array(vertices, dtype=np.float64)
     faces = np.asarray(faces, dtype=np.int64)
-    key = (*arrays_key(faces), len(v), float(lam))
+    return _repeat(_step(len(v), faces, lam), v, int(steps))
+
+
+def _step(
+    n: int, faces: NDArray[np.int64], lam: float
+) -> tuple[NDArray[np.int64] | None, sp.csr_matrix]:
+    """The smoothing step of this connectivity, localised (:func:`_localised`), kept in
+    :data:`_STEP_MEMO`."""
+    key = (*arrays_key(faces), n, float(lam))
     with _MEMO_LOCK:
         local = _STEP_MEMO.get(key)
     if local is None:
-        local = _localised(_smoothing_step(len(v), faces, lam))
-        if len(v) <= _STEP_MEMO_ROWS:
+        local = _localised(_smoothing_step(n, faces, lam))
+        if n <= _STEP_MEMO_ROWS:
             with _MEMO_LOCK:
                 _STEP_MEMO.clear()
                 _STEP_MEMO[key] = local
-    return _repeat(local, v, int(steps))
+    return local
 
 
 #: The last mesh's smoothing step (renumbered, :func:`_localised`): the embedder smooths one
@@ -249,7 +257,9 @@ def nudge_start(
     g = np.zeros_like(vertices)
     g[source] = offset[source] / radial[source]
     g[rival] = -offset[rival] / radial[rival]
-    g = _repeat(_localised(_smoothing_step(len(vertices), faces, lam).T.tocsr()), g, int(steps))
+    # Pᵀ is the kept step's transpose, in the same local order as the step itself.
+    order, local = _step(len(vertices), faces, lam)
+    g = _repeat((order, local.T.tocsr()), g, int(steps))
     norm2 = float((g * g).sum())
     return None if norm2 <= 0 else (deficit / norm2) * g
 
