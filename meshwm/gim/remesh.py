@@ -45,6 +45,7 @@ import scipy.sparse as sp
 from numpy.typing import NDArray
 
 from meshwm._validate import check_square_pow2
+from meshwm.errors import MeshError
 from meshwm.gim.boundary import Chains, Disk, boundary_chains, split_corners, unit_to_uv
 from meshwm.gim.cut import (
     area_centroid,
@@ -99,6 +100,7 @@ class _Surface(NamedTuple):
     euler_characteristic: int
     boundary_loops: int
     closed_genus0: bool
+    area: NDArray[np.float64]  # a third of the area of each vertex's faces
 
 
 class _Round(NamedTuple):
@@ -130,11 +132,10 @@ def _surface(vertices: NDArray[np.float64], faces: NDArray[np.int64]) -> _Surfac
     diameter = 2.0 * float(radial.max())
     # Spacing of samples spread evenly over the surface (the unit square has area 1).
     tri = vertices[faces]
-    uniform = float(
-        np.sqrt(
-            np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1).sum() / 2
-        )
-    )
+    face_area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
+    uniform = float(np.sqrt(face_area.sum()))
+    corner_area = np.repeat(face_area / 3.0, 3)
+    area = np.bincount(faces.ravel(), weights=corner_area, minlength=len(vertices)).astype(float)
     return _Surface(
         vertices,
         faces,
@@ -145,6 +146,7 @@ def _surface(vertices: NDArray[np.float64], faces: NDArray[np.int64]) -> _Surfac
         chi,
         n_loops,
         n_border == 0 and chi == 2,
+        area,
     )
 
 
@@ -229,6 +231,27 @@ def _cut_round(
     return _Round(float(step.max()), number, paths, chains, disk, uv, stretch_history, step, on_cut)
 
 
+#: The least part of the surface an undersampled region must cover for the next round to cut
+#: into it (0.03 %).  Every undersampled region used to get a cut, and specks of a few vertices
+#: at the threshold's edge multiply with the resolution: on igea subdivided to 5M vertices the
+#: rounds cut into so many that the cut no longer fit the grid's boundary (967 chains at
+#: N = 256).  Measured at N = 256 on the development meshes, the best round's largest local
+#: stretch with no floor / 0.01 % / 0.03 % / 0.1 %: cow 2.96 / 2.54 / 2.54 / 2.73, human
+#: 4.70 / 4.73 / 4.04 / 10.04 (a finger covers 0.15 %), bunny 3.07 / 3.07 / 2.90 / 3.16; the
+#: other six the same at every floor.
+_MIN_REGION = 3e-4
+
+
+#: A round whose largest local sample spacing is at most this many times the spacing of samples
+#: spread evenly over the surface ends the rounds.  ``max_stretch`` is relative to the diameter,
+#: and a sphere-like surface mapped evenly already spans about 1.8 diameters per UV unit, so it
+#: never stopped them there: igea subdivided to 537k vertices went through two more rounds (12
+#: solves) after a first round at 1.38, and kept the first.  At 2 the development meshes keep
+#: the round they kept before (camelhead 1.96, fandisk 1.42, kitten 1.91: all the first round)
+#: and skip the rest.
+_EVEN_ENOUGH = 2.0
+
+
 def _cut_rounds(
     surface: _Surface,
     n: int,
@@ -241,24 +264,34 @@ def _cut_rounds(
     """Cut, map, and extend the cut where the map undersamples; the best and the last round.
 
     Stops when the first round's harmonic map samples evenly enough, when a round's local
-    stretch is at most ``max_stretch``, after ``max_rounds`` extensions, or two rounds after
-    the best one.
+    stretch is at most ``max_stretch`` or its spacing at most :data:`_EVEN_ENOUGH` times the
+    even one, when no undersampled region is large enough to cut into, when an extended cut
+    does not fit the grid, after ``max_rounds`` extensions, or two rounds after the best one.
     """
     paths = initial_cut(
         surface.vertices, surface.faces, surface.graph, closed_genus0=surface.closed_genus0
     )
     number = 0
     best: _Round | None = None
+    last: _Round | None = None
     while True:
-        state = _cut_round(
-            surface,
-            paths,
-            n,
-            number=number,
-            stretch_iterations=stretch_iterations,
-            max_stretch=max_stretch,
-            accept_uniformity=accept_uniformity,
-        )
+        try:
+            state = _cut_round(
+                surface,
+                paths,
+                n,
+                number=number,
+                stretch_iterations=stretch_iterations,
+                max_stretch=max_stretch,
+                accept_uniformity=accept_uniformity,
+            )
+        except MeshError:
+            if best is None or last is None:
+                raise
+            # An extended cut that the grid cannot lay out (more chains than boundary
+            # samples): the rounds so far are what this size can do.
+            return best, last
+        last = state
         if best is None or state.max_step < best.max_step:
             best = state
         step = state.step
@@ -270,18 +303,24 @@ def _cut_rounds(
         if (
             accepted
             or step.max() <= max_stretch
+            or step.max() * surface.diameter / surface.uniform <= _EVEN_ENOUGH
             or number >= max_rounds
             or number - best.number >= 2
         ):
             return best, state
         number += 1
-        paths = extend_cut(
+        more = extend_cut(
             paths,
             surface.graph,
             on_cut=state.on_cut,
             undersampled=step > max_stretch,
             radial=surface.radial,
+            area=surface.area,
+            min_area=_MIN_REGION * float(surface.area.sum()),
         )
+        if len(more) == len(paths):  # nothing large enough to open
+            return best, state
+        paths = more
 
 
 def _report(surface: _Surface, best: _Round, last: _Round, weld: NDArray[np.int64], n: int) -> dict:
@@ -302,6 +341,7 @@ def _report(surface: _Surface, best: _Round, last: _Round, weld: NDArray[np.int6
         "chains": len(best.chains.chain_steps),
         "cut_paths": len(best.paths),
         "cut_rounds": best.number,
+        "cut_rounds_tried": last.number,
         "stretch_iterations": len(history) - 1,
         "stretch_rel": min(history) / diameter,
         "stretch_initial_rel": history[0] / diameter,
@@ -351,7 +391,8 @@ def mesh_to_geometry_image(
     GeometryImage
         The image, the weld map of its cut seams, the components passed through and a report
         with ``vertices_in``, ``faces_in``, ``genus``, ``boundary_loops``, ``cut_edges``,
-        ``chains``, ``flipped_triangles``, ``welded_samples`` and the cleaning counts.
+        ``chains``, ``cut_rounds`` (the round kept), ``cut_rounds_tried``, ``flipped_triangles``,
+        ``welded_samples`` and the cleaning counts.
 
     Raises
     ------

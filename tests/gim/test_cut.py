@@ -82,3 +82,41 @@ def test_extend_cut_adds_one_path_per_region_back_to_the_cut(ellipsoid):
     for path in more[len(paths) :]:
         assert undersampled[path[0]] and on_cut[path[-1]]
         assert np.all(graph[path[:-1], path[1:]] > 0)  # a path along edges
+
+
+def test_extend_cut_leaves_regions_smaller_than_min_area(ellipsoid):
+    v, f = ellipsoid
+    graph, radial = _graph_and_radial(v, f)
+    paths = initial_cut(v, f, graph, closed_genus0=True)
+    on_cut = np.zeros(len(v), dtype=bool)
+    on_cut[paths[0]] = True
+    # One large cap and one speck of a single vertex, far from the cut and from the cap.
+    far = np.flatnonzero((v[:, 1] < -0.8) & ~on_cut)
+    undersampled = v[:, 1] > 0.8
+    undersampled[far[0]] = True
+    area = np.ones(len(v))
+    cap = int(undersampled.sum()) - 1
+    kept = extend_cut(
+        paths,
+        graph,
+        on_cut=on_cut,
+        undersampled=undersampled,
+        radial=radial,
+        area=area,
+        min_area=2.0,
+    )
+    assert len(kept) == len(paths) + 1  # the cap only
+    assert undersampled[kept[-1][0]] and kept[-1][0] != far[0]
+    assert len(
+        extend_cut(
+            paths,
+            graph,
+            on_cut=on_cut,
+            undersampled=undersampled,
+            radial=radial,
+            area=area,
+            min_area=cap + 1.0,
+        )
+    ) == len(paths)
+    every = extend_cut(paths, graph, on_cut=on_cut, undersampled=undersampled, radial=radial)
+    assert len(every) == len(paths) + 2

@@ -125,3 +125,22 @@ def test_inputs_are_not_modified(spot_mesh):
     v0, f0 = v.copy(), f.copy()
     mesh_to_geometry_image(v, f, size=64)
     assert np.array_equal(v, v0) and np.array_equal(f, f0)
+
+
+def test_a_cut_round_that_outgrows_the_grid_ends_the_rounds(plane_mesh):
+    """plane_holes at N = 64: the first round's 78 chains fit the 252 boundary samples, the
+    extended cuts' did not (a MeshError before); the rounds that fit are kept."""
+    g = mesh_to_geometry_image(*plane_mesh, size=64)
+    assert g.report["boundary_loops"] >= 27
+    need = g.report["chains"]
+    assert need <= 4 * 63
+    assert g.report["cut_rounds"] >= 1
+    assert np.isfinite(g.gim).all()
+    assert g.report["flipped_triangles"] == 0
+
+
+def test_an_evenly_sampled_round_ends_the_rounds(kitten_mesh):
+    """kitten's first cut maps with spacing 1.91x the even one after reweighting: no more
+    rounds (it took two more, and kept the first, before)."""
+    g = mesh_to_geometry_image(*kitten_mesh, size=128)
+    assert g.report["cut_rounds"] == g.report["cut_rounds_tried"] == 0
