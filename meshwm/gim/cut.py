@@ -203,29 +203,20 @@ def extend_cut(
     on_cut: NDArray[np.bool_],
     undersampled: NDArray[np.bool_],
     radial: NDArray[np.float64],
-    area: NDArray[np.float64] | None = None,
-    min_area: float = 0.0,
 ) -> list[NDArray[np.int64]]:
     """``paths`` and one more cut path per connected undersampled region of vertices.
 
     Opens every undersampled region at its tip: for each connected region of vertices whose
     samples are too far apart, cut from its vertex farthest from the current cut along the
     shortest-path tree back to the cut (a forest: the new cuts never close a loop).  Ties in
-    that distance go to the vertex farthest from the centroid (``radial``).  With ``area``
-    (per vertex), a region of less than ``min_area`` in all is left as it is: a cut into a
-    speck of the surface adds two boundary chains and opens nothing that needs samples.
+    that distance go to the vertex farthest from the centroid (``radial``).
     """
-    sub = graph[undersampled][:, undersampled]
-    _, region = connected_components(sub, directed=False)
-    ids = np.flatnonzero(undersampled)
-    if area is not None:
-        big = np.bincount(region, weights=area[ids]) >= min_area
-        ids, region = ids[big[region]], region[big[region]]
-    if len(ids) == 0:
-        return list(paths)
     dist, pred, source = dijkstra(
         graph, indices=np.flatnonzero(on_cut), min_only=True, return_predecessors=True
     )
+    sub = graph[undersampled][:, undersampled]
+    _, region = connected_components(sub, directed=False)
+    ids = np.flatnonzero(undersampled)
     order = np.lexsort((radial[ids], dist[ids], region))
     last = np.ones(len(order), dtype=bool)
     last[:-1] = region[order][1:] != region[order][:-1]

@@ -100,7 +100,6 @@ class _Surface(NamedTuple):
     euler_characteristic: int
     boundary_loops: int
     closed_genus0: bool
-    area: NDArray[np.float64]  # a third of the area of each vertex's faces
 
 
 class _Round(NamedTuple):
@@ -132,10 +131,11 @@ def _surface(vertices: NDArray[np.float64], faces: NDArray[np.int64]) -> _Surfac
     diameter = 2.0 * float(radial.max())
     # Spacing of samples spread evenly over the surface (the unit square has area 1).
     tri = vertices[faces]
-    face_area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
-    uniform = float(np.sqrt(face_area.sum()))
-    corner_area = np.repeat(face_area / 3.0, 3)
-    area = np.bincount(faces.ravel(), weights=corner_area, minlength=len(vertices)).astype(float)
+    uniform = float(
+        np.sqrt(
+            np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1).sum() / 2
+        )
+    )
     return _Surface(
         vertices,
         faces,
@@ -146,7 +146,6 @@ def _surface(vertices: NDArray[np.float64], faces: NDArray[np.int64]) -> _Surfac
         chi,
         n_loops,
         n_border == 0 and chi == 2,
-        area,
     )
 
 
@@ -231,17 +230,6 @@ def _cut_round(
     return _Round(float(step.max()), number, paths, chains, disk, uv, stretch_history, step, on_cut)
 
 
-#: The least part of the surface an undersampled region must cover for the next round to cut
-#: into it (0.03 %).  Every undersampled region used to get a cut, and specks of a few vertices
-#: at the threshold's edge multiply with the resolution: on igea subdivided to 5M vertices the
-#: rounds cut into so many that the cut no longer fit the grid's boundary (967 chains at
-#: N = 256).  Measured at N = 256 on the development meshes, the best round's largest local
-#: stretch with no floor / 0.01 % / 0.03 % / 0.1 %: cow 2.96 / 2.54 / 2.54 / 2.73, human
-#: 4.70 / 4.73 / 4.04 / 10.04 (a finger covers 0.15 %), bunny 3.07 / 3.07 / 2.90 / 3.16; the
-#: other six the same at every floor.
-_MIN_REGION = 3e-4
-
-
 #: A round whose largest local sample spacing is at most this many times the spacing of samples
 #: spread evenly over the surface ends the rounds.  ``max_stretch`` is relative to the diameter,
 #: and a sphere-like surface mapped evenly already spans about 1.8 diameters per UV unit, so it
@@ -265,8 +253,8 @@ def _cut_rounds(
 
     Stops when the first round's harmonic map samples evenly enough, when a round's local
     stretch is at most ``max_stretch`` or its spacing at most :data:`_EVEN_ENOUGH` times the
-    even one, when no undersampled region is large enough to cut into, when an extended cut
-    does not fit the grid, after ``max_rounds`` extensions, or two rounds after the best one.
+    even one, when an extended cut does not fit the grid, after ``max_rounds`` extensions, or
+    two rounds after the best one.
     """
     paths = initial_cut(
         surface.vertices, surface.faces, surface.graph, closed_genus0=surface.closed_genus0
@@ -309,18 +297,13 @@ def _cut_rounds(
         ):
             return best, state
         number += 1
-        more = extend_cut(
+        paths = extend_cut(
             paths,
             surface.graph,
             on_cut=state.on_cut,
             undersampled=step > max_stretch,
             radial=surface.radial,
-            area=surface.area,
-            min_area=_MIN_REGION * float(surface.area.sum()),
         )
-        if len(more) == len(paths):  # nothing large enough to open
-            return best, state
-        paths = more
 
 
 def _report(surface: _Surface, best: _Round, last: _Round, weld: NDArray[np.int64], n: int) -> dict:
