@@ -124,11 +124,10 @@ def normal_rms(
     float
     """
     along, diag = _along_normals(positions, faces, displacement)
-    area = np.zeros(len(positions))
     e1 = positions[faces[:, 1]] - positions[faces[:, 0]]
     e2 = positions[faces[:, 2]] - positions[faces[:, 0]]
     tri = 0.5 * np.linalg.norm(np.cross(e1, e2), axis=1)
-    np.add.at(area, faces.ravel(), np.repeat(tri / 3.0, 3))
+    area = np.bincount(faces.ravel(), weights=np.repeat(tri / 3.0, 3), minlength=len(positions))
     if diag <= 0 or area.sum() <= 0:
         return 0.0
     return float(np.sqrt(np.sum(area * along**2) / area.sum())) / diag
@@ -275,7 +274,7 @@ def _along_normals(
     """Each vertex's displacement along its normal, and the used vertices' bbox diagonal."""
     normals = np.nan_to_num(igl.per_vertex_normals(positions, faces))
     along = np.einsum("ij,ij->i", normals, displacement)
-    pts = positions[np.unique(faces)]
+    pts = positions[_used(faces, len(positions))]
     return along, float(np.linalg.norm(pts.max(axis=0) - pts.min(axis=0)))
 
 
@@ -307,7 +306,9 @@ def _carry_radial(
     passes = RADIAL_PASSES
     for _ in range(1 + _RADIAL_REPAIRS):
         try:
-            mark = embed_radial(positions + d, faces, bits, key=key, n=n, passes=passes)
+            mark = embed_radial(
+                positions + d, faces, bits, key=key, n=n, passes=passes, read_back=False
+            )
         except MeshError as exc:  # no pose (a flat point set): the surface carrier alone
             return _clamp_peaks(positions, clamp_faces, d), {"radial_n": None, "radial": str(exc)}
         d = _clamp_peaks(positions, clamp_faces, mark.vertices - positions)
