@@ -82,3 +82,16 @@ def test_extend_cut_adds_one_path_per_region_back_to_the_cut(ellipsoid):
     for path in more[len(paths) :]:
         assert undersampled[path[0]] and on_cut[path[-1]]
         assert np.all(graph[path[:-1], path[1:]] > 0)  # a path along edges
+
+
+def test_area_centroid_gives_the_bits_of_the_plain_formula(spot_mesh):
+    """The centroid decides cuts that marks already embedded rely on: the column-wise form
+    must keep the plain formula's bits, under any similarity."""
+    v0, f = spot_mesh
+    rng = np.random.default_rng(3)
+    for _ in range(20):
+        v = v0 * rng.uniform(0.01, 100) + rng.uniform(-100, 100, size=3)
+        tri = v[f]
+        area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
+        plain = (area[:, None] * tri.mean(axis=1)).sum(axis=0) / area.sum()
+        assert np.array_equal(area_centroid(v, f), plain)
