@@ -213,3 +213,16 @@ def test_the_marked_mesh_keeps_the_inputs_cut_start(spot_mesh):
         np.testing.assert_array_equal(after.map.cut.order[:2], before.map.cut.order[:2])
         np.testing.assert_array_equal(after.map.uv, before.map.uv)
     assert seen == {"nudged", "kept"}
+
+
+def test_the_start_is_checked_after_the_radial_carrier(spot_mesh):
+    # With this key and id the radial carrier tipped spot's start again after it had been put
+    # back (when the start came first): the start is now checked on the final positions, and
+    # the radial carrier still reads every bit.
+    v, f = spot_mesh
+    before = surface_of(v, f)
+    marked = embed(v, f, key="k3", ident=bytes.fromhex("0badc0de5ca1ab1e"), distances=False)
+    assert marked.report["start"] == "nudged"
+    assert marked.report["radial_ber"] == 0.0
+    after = surface_of(marked.vertices, f)
+    np.testing.assert_array_equal(after.map.cut.order[:2], before.map.cut.order[:2])
