@@ -202,11 +202,14 @@ def _vertex_distances(
     ask = ask[bound[ask] > above * diag]
     if len(ask) == 0:
         return out, diag
-    edge = max(
-        float(np.linalg.norm(p[f[:, k]] - p[f[:, (k + 1) % 3]], axis=1).max())
-        for p in (positions, moved)
-        for k in range(3)
-    )
+    # The longest edge of either surface, bounded: the input's plus twice the largest move (a
+    # larger reach only adds faces farther than the nearest, the distances stay the same).
+    edge = np.sqrt(
+        max(
+            float(((positions[f[:, k]] - positions[f[:, k - 1]]) ** 2).sum(axis=1).max())
+            for k in range(3)
+        )
+    ) + 2.0 * float(move[used].max())
     reach = float(bound[ask].max()) + edge
     # The faces with a corner within ``reach`` of a query point: one nearest-neighbour query
     # of all corners against the query points, bounded by ``reach`` (the same set as a ball
