@@ -25,15 +25,17 @@ __all__ = [
 def _group(key: NDArray, rows: NDArray) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
     """``(first, inverse)`` of the rows grouped by a stable sort of one integer ``key`` per row
     that equal rows share (and, where it is a packed key, only they)."""
-    order = np.argsort(key, kind="stable")
+    # numpy's unstable argsort (a vectorised quicksort) is four times its stable one on 2M
+    # keys; the first occurrence of each group is then its smallest index.
+    order = np.argsort(key)
     s = key[order]
     new = np.ones(len(rows), dtype=bool)
     new[1:] = s[1:] != s[:-1]
     group = np.cumsum(new) - 1
     inverse = np.empty(len(rows), dtype=np.int64)
     inverse[order] = group
-    first = order[new]  # the sort is stable, so this is the first occurrence of each row
-    return first, inverse
+    first = np.minimum.reduceat(order, np.flatnonzero(new)) if len(order) else order
+    return first.astype(np.int64), inverse
 
 
 def unique_rows(rows: NDArray) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
@@ -90,7 +92,10 @@ def _hashed_groups(v: NDArray) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
             h = (h ^ bits[:, k]) * mix
             h ^= h >> np.uint64(29)
     first, inverse = _group(h.view(np.int64), v)
-    if not np.array_equal(bits[first][inverse], bits):  # a collision: exact but slower
+    # Only rows grouped with an earlier one need checking (a collision: exact but slower).
+    rep = first[inverse]
+    later = np.flatnonzero(rep != np.arange(len(v)))
+    if not np.array_equal(bits[rep[later]], bits[later]):
         return unique_rows(v)
     return first, inverse
 
@@ -109,7 +114,7 @@ def distinct_rows(rows: NDArray) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
     ([0, 1, 3], [0, 1, 0, 2])
     """
     first, inverse = _hashed_groups(np.asarray(rows))
-    order = np.argsort(first, kind="stable")
+    order = np.argsort(first)  # distinct values: any sort gives this order
     rank = np.empty(len(order), dtype=np.int64)
     rank[order] = np.arange(len(order))
     return first[order], rank[inverse]

@@ -37,3 +37,16 @@ def test_distinct_rows_groups_bit_identical_rows_by_first_appearance(seed):
         assert np.array_equal(bits[first][inverse], bits)  # each row is its group's row
         assert len(np.unique(bits, axis=0)) == len(first)  # and groups are bit-distinct
         assert np.array_equal(inverse[first], np.arange(len(first)))  # numbered in order
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_unique_rows_of_integers_is_numpys_unique_over_rows(seed):
+    # The packed-key path: one sort of a key per row, first occurrences as the smallest index.
+    rng = np.random.default_rng(seed)
+    for _ in range(60):
+        v = rng.integers(-3, 4, (int(rng.integers(1, 400)), 3))
+        values, first, inverse = np.unique(v, axis=0, return_index=True, return_inverse=True)
+        got_first, got_inverse = unique_rows(v)
+        assert np.array_equal(v[got_first], values)
+        assert np.array_equal(got_first, first)
+        assert np.array_equal(got_inverse, inverse.ravel())
