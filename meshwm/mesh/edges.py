@@ -23,8 +23,9 @@ __all__ = [
 
 
 def _group(key: NDArray, rows: NDArray) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
-    """``(first, inverse)`` of the rows grouped by a stable sort of one integer ``key`` per row
-    that equal rows share (and, where it is a packed key, only they)."""
+    """``(first, inverse)`` of the rows grouped by a sort of one integer ``key`` per row that
+    equal rows share (and, where it is a packed key, only they): groups in key order, ``first``
+    each group's first occurrence."""
     # numpy's unstable argsort (a vectorised quicksort) is four times its stable one on 2M
     # keys; the first occurrence of each group is then its smallest index.
     order = np.argsort(key)

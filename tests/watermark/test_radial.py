@@ -92,3 +92,15 @@ def test_an_unused_vertex_stays_and_copies_move_together(spot_mesh):
 
 def test_the_size_follows_the_payload():
     assert radial_size(256) == 128 and radial_size(1024) == 256
+
+
+def test_a_settled_carrier_stops_early_and_still_sits_on_its_lattice(kitten_mesh):
+    # A pass that moves no projection by a hundredth of a step is the last: kitten settles
+    # before the last pass, and the projections a reader derives sit on their lattice points.
+    v, f = kitten_mesh
+    mark = embed_radial(v, f, BITS, key=KEY)
+    assert mark.report["radial_passes"] < 3
+    assert mark.report["radial_ber"] == 0
+    got, confidence, _ = radial_read(mark.vertices, f, len(BITS), key=KEY)
+    assert_array_equal(got, BITS)
+    assert np.abs(confidence).min() > 0.999  # within a thousandth of a step
