@@ -80,7 +80,8 @@ def area_centroid(vertices: NDArray[np.float64], faces: NDArray[np.int64]) -> ND
     """
     v = np.asarray(vertices, dtype=np.float64)
     corners = [np.ascontiguousarray(faces[:, k]) for k in range(3)]
-    p = [[np.ascontiguousarray(v[:, c])[k] for k in corners] for c in range(3)]
+    columns = [np.ascontiguousarray(v[:, c]) for c in range(3)]
+    p = [[column[k] for k in corners] for column in columns]
     e1 = [p[c][1] - p[c][0] for c in range(3)]
     e2 = [p[c][2] - p[c][0] for c in range(3)]
     cx = e1[1] * e2[2] - e1[2] * e2[1]
