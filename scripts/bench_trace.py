@@ -4,12 +4,13 @@ The registry holds the development meshes (two marked copies each) and ``--asset
 the others are made from the development meshes by random smooth deformations (an anisotropic
 scale and a bend, from SHA-256 of their index), each with its own shape descriptor, reference
 (the deformed reference points) and one copy.  For each mesh, its first copy is moved by a
-random similarity and simplified to 50 %, then (a) traced against a registry of its own asset
+random similarity and simplified to 50 % (``--received crop``: 30 % of it cropped away, the
+case the shape descriptor ranks worst), then (a) traced against a registry of its own asset
 alone (one informed read: descriptor, pose, offsets, the copies' tests), (b) traced against
 the full registry; median of ``--repeat`` runs each, whole ``Tracer(...).trace(...)`` calls.
 
     python scripts/bench_trace.py [--assets 1000] [--meshes spot igea ...] [--repeat 3]
-        [--out FILE] [--reuse DIR]
+        [--received {simplify,crop}] [--out FILE] [--reuse DIR]
 
 ``--reuse DIR``: the registry and marked copies ``scripts/null_informed.py`` or an earlier run
 built (``DIR/registry.db``, ``DIR/<mesh>.npy``), instead of embedding again.
@@ -40,6 +41,12 @@ from meshwm.mesh.io import read_mesh
 from meshwm.readers.informed import REFERENCE_SIZE, Reference, seal_signature
 from meshwm.readers.registration import shape_descriptor
 from meshwm.watermark.trace import Tracer
+
+#: What happens to the copy before it is traced: ``--received``.
+RECEIVED: dict[str, list[tuple[str, dict]]] = {
+    "simplify": [("similarity", {"seed": 11}), ("simplify", {"seed": 1, "keep_fraction": 0.5})],
+    "crop": [("similarity", {"seed": 11}), ("crop", {"seed": 1, "fraction": 0.3})],
+}
 
 
 def _uniform(*parts: object, count: int) -> np.ndarray:
@@ -125,13 +132,14 @@ def main() -> int:
     parser.add_argument("--assets", type=int, default=1000)
     parser.add_argument("--meshes", nargs="+", default=["spot", "fandisk", "kitten", "igea"])
     parser.add_argument("--repeat", type=int, default=3)
+    parser.add_argument("--received", choices=sorted(RECEIVED), default="simplify")
     parser.add_argument("--out", type=Path)
     parser.add_argument("--reuse", type=Path, help="a folder an earlier run built")
     args = parser.parse_args()
     lines = [
         "| mesh | one informed read s | trace, "
-        f"{args.assets} assets s | ratio | found | candidates tried |",
-        "|---|---:|---:|---:|---|---:|",
+        f"{args.assets} assets s | ratio | found | candidates tried | looks |",
+        "|---|---:|---:|---:|---|---:|---:|",
     ]
     with tempfile.TemporaryDirectory() as scratch:
         big = os.path.join(scratch, "big.db")
@@ -156,8 +164,8 @@ def main() -> int:
                 copy_asset(source, target, m)
             _, f = read_mesh(MESHES / f"{m}.ply")
             v = np.load(Path(scratch) / f"{m}.npy")
-            v, f = apply_attack("similarity", v, f, seed=11)
-            v, f = apply_attack("simplify", v, f, seed=1, keep_fraction=0.5)
+            for name, options in RECEIVED[args.received]:
+                v, f = apply_attack(name, v, f, **options)
             times: dict[str, list[float]] = {"one": [], "big": []}
             found = None
             for _ in range(args.repeat):
@@ -173,9 +181,12 @@ def main() -> int:
             ok = found.detected and found.report.get("asset") == m
             lines.append(
                 f"| {m} | {a:.2f} | {b:.2f} | {b / a:.2f} | {'yes' if ok else 'NO'} | "
+                f"{len({c['asset_id'] for c in found.report['candidates']})} | "
                 f"{len(found.report['candidates'])} |"
             )
-    lines.append(f"\nregistry: {held} assets, filled in {fill:.0f} s")
+    steps = ", then ".join(f"{n} {o}" for n, o in RECEIVED[args.received])
+    lines.append(f"\nreceived: {steps}; median of {args.repeat}")
+    lines.append(f"registry: {held} assets, filled in {fill:.0f} s")
     text = "\n".join(lines)
     print(text)
     if args.out:

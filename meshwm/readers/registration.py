@@ -88,6 +88,10 @@ class Registration(NamedTuple):
         least the reference's median one).
     hypotheses : int
         Initial poses tried.
+    settled : bool
+        The search ended on a good fit (overlap 95 %, polished residual within 2e-3 of the
+        diagonal) before the spread over SO(3): ``register`` with and without ``spread`` give
+        the same pose.
     """
 
     scale: float
@@ -96,6 +100,7 @@ class Registration(NamedTuple):
     rms: float
     overlap: float
     hypotheses: int
+    settled: bool = True
 
     def apply(self, points: NDArray) -> NDArray[np.float64]:
         """Received coordinates (..., 3) into the reference's frame."""
@@ -431,6 +436,7 @@ def register(
     reference_points: NDArray,
     *,
     reference_normals: NDArray | None = None,
+    spread: bool = True,
 ) -> Registration:
     """The similarity taking a received mesh into the frame of an asset's reference points.
 
@@ -446,6 +452,10 @@ def register(
         Normals at those points (any length, any sign), for the refinement's point-to-plane
         steps; the final polish uses the received faces' normals.  Default (or where NaN or
         zero): the least principal axis of each point's 10 nearest reference points.
+    spread : bool, default True
+        Go on to the 72 rotations spread over SO(3) where the principal frames do not fit
+        (stage 2 below).  False: the four principal frames only, the cheap first look
+        (``Registration.settled`` says whether the spread would have been tried).
 
     Returns
     -------
@@ -526,7 +536,10 @@ def register(
     candidates: list[tuple[float, _Pose]] = []
     chosen: tuple[_Pose, float] | None = None
     hypotheses = 0
-    for rotations in (ref.axes @ _FLIPS @ axes.T, ref.axes @ _spread_rotations(_SPREAD) @ axes.T):
+    searches = [ref.axes @ _FLIPS @ axes.T]
+    if spread:
+        searches.append(ref.axes @ _spread_rotations(_SPREAD) @ axes.T)
+    for rotations in searches:
         hypotheses += len(rotations)
         found = coarse(rotations)
         for score, start in found[:_REFINED]:
@@ -542,6 +555,7 @@ def register(
             chosen = polished
         if polished[1] <= _GOOD_RMS:
             break
+    settled = chosen is not None and chosen[1] <= _GOOD_RMS and hypotheses == len(_FLIPS)
     if chosen is None or chosen[1] > _GOOD_RMS:
         polished = _polish(v, f, ref, best)
         if chosen is None or polished[1] < chosen[1]:
@@ -549,5 +563,5 @@ def register(
     pose, rms = chosen
     translation = pose.translation - pose.scale * offset @ pose.rotation.T
     return Registration(
-        pose.scale, pose.rotation, translation, rms, _overlap(x, ref, pose), hypotheses
+        pose.scale, pose.rotation, translation, rms, _overlap(x, ref, pose), hypotheses, settled
     )

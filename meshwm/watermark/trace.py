@@ -7,9 +7,11 @@ pose (:func:`meshwm.readers.registration.register`) and the received offsets
 own vertices and faces, the offsets through that correspondence
 (:func:`meshwm.readers.informed.same_mesh_offsets`) —, and each copy's signature, unsealed with
 the key, is tested against them (:func:`meshwm.readers.informed.identify`).  Candidates are tried
-in descriptor order and the first that identifies a copy stops the search; the decision counts
-every hypothesis that could have been tried (every candidate × pose × copy), so stopping early
-never raises the false-positive rate.
+in descriptor order, each first through its principal frames (cheap), then those whose frames
+did not fit through the rotations spread over SO(3); the first that identifies a copy stops the
+search.  The decision counts every hypothesis that could have been tried (every candidate ×
+pose × copy, each pose tried among them), so stopping early never raises the false-positive
+rate.
 
 The registry is anything with the methods of :class:`RegistryView` (the storage lives in
 :mod:`meshwm.apps.registry`; this module does not import it).
@@ -18,7 +20,7 @@ The registry is anything with the methods of :class:`RegistryView` (the storage 
 from __future__ import annotations
 
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from typing import Any, NamedTuple, Protocol
 
 import numpy as np
@@ -107,6 +109,7 @@ class _Candidate(NamedTuple):
     copies: list[Any]
     pose_hypotheses: int
     rms: float | None
+    settled: bool  # the principal frames fitted: the spread would give the same pose
     note: str | None
 
 
@@ -143,7 +146,7 @@ class Tracer:
             distance = descriptor_distance(query, table)
             self._order = [int(ids[i]) for i in np.argsort(distance, kind="stable")[:candidates]]
         self._copies = {a: list(registry.copies(a)) for a in self._order}
-        self._posed: dict[int, _Candidate] = {}
+        self._posed: dict[tuple[int, bool], _Candidate] = {}
 
     @property
     def hypotheses(self) -> int:
@@ -153,21 +156,27 @@ class Tracer:
         per_copy = POSE_HYPOTHESES + VERTEX_HYPOTHESES
         return max(1, sum(per_copy * max(1, len(c)) for c in self._copies.values()))
 
-    def _candidate(self, asset_id: int) -> _Candidate:
-        if asset_id in self._posed:
-            return self._posed[asset_id]
+    def _candidate(self, asset_id: int, *, spread: bool) -> _Candidate:
+        """The asset posed: through its principal frames only (``spread`` False, the cheap first
+        look), or on to the rotations spread over SO(3) where those do not fit."""
+        if (asset_id, spread) in self._posed:
+            return self._posed[asset_id, spread]
         copies = [c for c in self._copies[asset_id] if getattr(c, "signature", None)]
         blob = self._registry.references(asset_id).get(REFERENCE_SIZE)
         cand: _Candidate
         if blob is None or not copies:
             cand = _Candidate(
-                asset_id, None, None, None, copies, 0, None, "no reference or no copy"
+                asset_id, None, None, None, copies, 0, None, True, "no reference or no copy"
             )
         else:
             reference = Reference.from_bytes(blob)
             same = same_mesh_offsets(reference, self._v, self._f)
             pose = register(
-                self._v, self._f, reference.anchors, reference_normals=reference.anchor_normals
+                self._v,
+                self._f,
+                reference.anchors,
+                reference_normals=reference.anchor_normals,
+                spread=spread,
             )
             moved = pose.scale * self._v @ pose.rotation.T + pose.translation
             offsets = None
@@ -177,10 +186,29 @@ class Tracer:
             else:
                 offsets = received_offsets(reference, moved, self._f)
             cand = _Candidate(
-                asset_id, reference, offsets, same, copies, pose.hypotheses, pose.rms, note
+                asset_id,
+                reference,
+                offsets,
+                same,
+                copies,
+                pose.hypotheses,
+                pose.rms,
+                pose.settled,
+                note,
             )
-        self._posed[asset_id] = cand
+        self._posed[asset_id, spread] = cand
         return cand
+
+    def _looks(self) -> Iterator[tuple[int, bool]]:
+        """The candidates in descriptor order through their principal frames, then, for those
+        whose frames did not fit, again with the spread (a crop turns the principal axes; the
+        spread costs about ten frames' looks, so a wrong candidate ranked first must not pay it
+        before the right one has had its cheap look)."""
+        for asset_id in self._order:
+            yield asset_id, False
+        for asset_id in self._order:
+            if not self._candidate(asset_id, spread=False).settled:
+                yield asset_id, True
 
     def trace(self, *, key: str | bytes, fpr: float = DEFAULT_FPR) -> Traced:
         """Identify the registered copy the mesh carries, with ``key``."""
@@ -189,13 +217,21 @@ class Tracer:
         tried: list[dict[str, Any]] = []
         best: dict[str, Any] | None = None
         detected = False
-        for asset_id in self._order:
-            cand = self._candidate(asset_id)
-            entry: dict[str, Any] = {"asset_id": asset_id, "registration_rms": cand.rms}
+        for asset_id, spread in self._looks():
+            cand = self._candidate(asset_id, spread=spread)
+            entry: dict[str, Any] = {
+                "asset_id": asset_id,
+                "poses": cand.pose_hypotheses,
+                "registration_rms": cand.rms,
+            }
             tried.append(entry)
+            # The vertex-by-vertex reading does not depend on the pose: made at the first look.
             readings = [
                 (label, offsets)
-                for label, offsets in (("pose", cand.offsets), ("vertices", cand.same))
+                for label, offsets in (
+                    ("pose", cand.offsets),
+                    ("vertices", None if spread else cand.same),
+                )
                 if offsets is not None
             ]
             if not readings or cand.reference is None:

@@ -207,6 +207,31 @@ def test_crops_against_a_geometry_image(dev_meshes):
         assert pose_error(fit, s * va @ r.T + t, va, _diagonal(v)) < 1e-10, seed
 
 
+def test_principal_frames_alone_settle_or_say_so():
+    """``spread=False`` looks through the four principal frames only: where that search settles
+    it is the full search bit for bit; where it does not, the full search went on to the spread
+    (ten crops of spot, three of which turn its principal axes)."""
+    v, f = read_mesh(data.path("spot"))
+    reference = surface_points(v, f, 5000)
+    settled = 0
+    for seed in range(10):
+        va, fa = apply_attack("crop", v, f, seed=seed, fraction=0.3)
+        s, r, t = random_similarity(v, 100 + seed)
+        moved = s * va @ r.T + t
+        full = register(moved, fa, reference)
+        quick = register(moved, fa, reference, spread=False)
+        assert quick.hypotheses == 4
+        assert pose_error(full, moved, va, _diagonal(v)) < 1e-10, seed
+        if quick.settled:
+            settled += 1
+            assert full.settled and full.hypotheses == 4
+            assert full.rotation.tobytes() == quick.rotation.tobytes()
+            assert (full.scale, full.rms) == (quick.scale, quick.rms)
+        else:
+            assert not full.settled and full.hypotheses == 76
+    assert 0 < settled < 10
+
+
 def test_registration_is_deterministic():
     v, f = read_mesh(data.path("spot"))
     reference = surface_points(v, f, 5000)

@@ -13,6 +13,7 @@ from meshwm.apps.cli import main
 from meshwm.apps.registry import Registry
 from meshwm.attacks import apply_attack
 from meshwm.mesh.io import read_mesh, write_mesh
+from meshwm.watermark.trace import Tracer
 
 KEY = "trace-test-key-5f1c"
 IDS = ("0x0123456789abcdef", "0xfedcba9876543210")
@@ -243,3 +244,34 @@ def test_a_copy_with_an_earlier_copys_payload_is_recorded_with_a_warning(
     assert "same payload" in err and "for alice" in err and KEY not in err
     with Registry.open(db, create=False) as registry:  # recorded all the same
         assert [c.recipient for c in registry.copies()] == ["alice", "bob", "carol"]
+
+
+def _looks(report: dict, names: dict[int, str]) -> list[tuple[str, int]]:
+    return [(names[c["asset_id"]], c["poses"]) for c in report["candidates"]]
+
+
+@pytest.mark.parametrize(
+    ("crop_seed", "expected"),
+    [
+        # kitten's descriptor ranks first: it gets its cheap look only, then spot's reads.
+        (1, [("kitten", 4), ("spot", 4)]),
+        # The crop turns spot's principal axes: every candidate's cheap look first, then the
+        # spread over SO(3) for spot (kitten's frames did not fit either, but spot reads first).
+        (0, [("spot", 4), ("kitten", 4), ("spot", 76)]),
+    ],
+)
+def test_trace_looks_at_every_candidate_cheaply_before_any_spread(registered, crop_seed, expected):
+    """A 30 % crop of bob's copy: no candidate is posed over the 72 spread rotations (about ten
+    times the cost of its principal frames) before every candidate has had its cheap look, so
+    a wrong asset ranked first costs little (a crop traced against 1,000 assets: see
+    docs/bench/trace.md)."""
+    _, db, outs = registered
+    v, f = read_mesh(outs[1])
+    v, f = apply_attack("similarity", v, f, seed=7)
+    v, f = apply_attack("crop", v, f, seed=crop_seed, fraction=0.3)
+    with Registry.open(db, create=False) as registry:
+        names = {a.id: a.name.removesuffix(".ply") for a in registry.assets()}
+        traced = Tracer(v, f, registry).trace(key=KEY)
+    assert traced.detected and traced.report["recipient"] == "bob", traced.report
+    assert _looks(traced.report, names) == expected
+    assert traced.report["p_value"] * traced.report["hypotheses"] < 1e-6
