@@ -45,6 +45,7 @@ __all__ = [
     "RegistryView",
     "Traced",
     "Tracer",
+    "nearest_assets",
     "trace",
 ]
 
@@ -67,6 +68,41 @@ class RegistryView(Protocol):
     def copies(self, asset_id: int | None = None) -> Sequence[Any]: ...
 
     def asset(self, asset_id: int) -> Any: ...
+
+
+def nearest_assets(
+    registry: RegistryView,
+    vertices: NDArray,
+    faces: NDArray,
+    *,
+    among: Sequence[int] | None = None,
+    count: int | None = None,
+) -> list[int]:
+    """Registered asset ids, the nearest shape descriptor to the mesh's first.
+
+    Parameters
+    ----------
+    registry : RegistryView
+    vertices, faces : array_like
+        The received mesh.
+    among : sequence of int, optional
+        Only these assets (default: every registered one).
+    count : int, optional
+        At most this many (default: all).
+
+    Returns
+    -------
+    list of int
+        Ties keep the registry's order (by asset id).
+    """
+    ids, table = registry.descriptors()
+    if among is not None:
+        keep = np.isin(ids, np.asarray(list(among), dtype=np.int64))
+        ids, table = ids[keep], table[keep]
+    if not len(ids):
+        return []
+    distance = descriptor_distance(shape_descriptor(vertices, faces), table)
+    return [int(ids[i]) for i in np.argsort(distance, kind="stable")[:count]]
 
 
 class Traced(NamedTuple):
@@ -139,12 +175,7 @@ class Tracer:
             raise ValueError(f"candidates must be a positive integer, got {candidates!r}")
         self._v, self._f = check_mesh(vertices, faces, max_faces=max_faces)
         self._registry = registry
-        ids, table = registry.descriptors()
-        self._order: list[int] = []
-        if len(ids):
-            query = shape_descriptor(self._v, self._f)
-            distance = descriptor_distance(query, table)
-            self._order = [int(ids[i]) for i in np.argsort(distance, kind="stable")[:candidates]]
+        self._order = nearest_assets(registry, self._v, self._f, count=candidates)
         self._copies = {a: list(registry.copies(a)) for a in self._order}
         self._posed: dict[tuple[int, bool], _Candidate] = {}
 

@@ -150,14 +150,11 @@ def _nearest_asset(registry: Any, copies: list[Any], asset: Any, k: int) -> list
     owners = sorted({c.asset_id for c in copies})
     if len(owners) <= 1:
         return copies
-    import numpy as np
+    from meshwm.watermark.trace import nearest_assets
 
-    from meshwm.readers.registration import descriptor_distance, shape_descriptor
-
-    ids, table = registry.descriptors()
-    rows = [int(np.flatnonzero(ids == a)[0]) for a in owners]
-    query = shape_descriptor(asset.vertices(k), asset.meshes[k].faces)
-    nearest = owners[int(np.argmin(descriptor_distance(query, table[rows])))]
+    (nearest,) = nearest_assets(
+        registry, asset.vertices(k), asset.meshes[k].faces, among=owners, count=1
+    )
     return [c for c in copies if c.asset_id == nearest]
 
 

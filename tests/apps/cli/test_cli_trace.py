@@ -13,7 +13,7 @@ from meshwm.apps.cli import main
 from meshwm.apps.registry import Registry
 from meshwm.attacks import apply_attack
 from meshwm.mesh.io import read_mesh, write_mesh
-from meshwm.watermark.trace import Tracer
+from meshwm.watermark.trace import Tracer, nearest_assets
 
 KEY = "trace-test-key-5f1c"
 IDS = ("0x0123456789abcdef", "0xfedcba9876543210")
@@ -275,3 +275,15 @@ def test_trace_looks_at_every_candidate_cheaply_before_any_spread(registered, cr
     assert traced.detected and traced.report["recipient"] == "bob", traced.report
     assert _looks(traced.report, names) == expected
     assert traced.report["p_value"] * traced.report["hypotheses"] < 1e-6
+
+
+def test_nearest_assets_ranks_by_shape_within_a_choice(registered, assets_dir):
+    _, db, outs = registered
+    v, f = read_mesh(outs[2])  # kitten's copy, moved
+    v, f = apply_attack("similarity", v, f, seed=3)
+    with Registry.open(db, create=False) as registry:
+        ids = {a.name.removesuffix(".ply"): a.id for a in registry.assets()}
+        assert nearest_assets(registry, v, f) == [ids["kitten"], ids["spot"]]
+        assert nearest_assets(registry, v, f, count=1) == [ids["kitten"]]
+        assert nearest_assets(registry, v, f, among=[ids["spot"]]) == [ids["spot"]]
+        assert nearest_assets(registry, v, f, among=[]) == []
