@@ -4,13 +4,14 @@ The registry holds the development meshes (two marked copies each) and ``--asset
 the others are made from the development meshes by random smooth deformations (an anisotropic
 scale and a bend, from SHA-256 of their index), each with its own shape descriptor, reference
 (the deformed reference points) and one copy.  For each mesh, its first copy is moved by a
-random similarity and simplified to 50 % (``--received crop``: 30 % of it cropped away, the
-case the shape descriptor ranks worst), then (a) traced against a registry of its own asset
-alone (one informed read: descriptor, pose, offsets, the copies' tests), (b) traced against
-the full registry; median of ``--repeat`` runs each, whole ``Tracer(...).trace(...)`` calls.
+random similarity and simplified to 50 % (``--received simplify``) or, moved by the same
+similarity, cropped by 30 % (``crop``: the case the shape descriptor ranks worst); then (a)
+traced against a registry of its own asset alone (one informed read: descriptor, pose,
+offsets, the copies' tests), (b) traced against the full registry; median of ``--repeat``
+runs each, whole ``Tracer(...).trace(...)`` calls.
 
     python scripts/bench_trace.py [--assets 1000] [--meshes spot igea ...] [--repeat 3]
-        [--received {simplify,crop}] [--out FILE] [--reuse DIR]
+        [--received simplify crop] [--out FILE] [--reuse DIR]
 
 ``--reuse DIR``: the registry and marked copies ``scripts/null_informed.py`` or an earlier run
 built (``DIR/registry.db``, ``DIR/<mesh>.npy``), instead of embedding again.
@@ -132,14 +133,16 @@ def main() -> int:
     parser.add_argument("--assets", type=int, default=1000)
     parser.add_argument("--meshes", nargs="+", default=["spot", "fandisk", "kitten", "igea"])
     parser.add_argument("--repeat", type=int, default=3)
-    parser.add_argument("--received", choices=sorted(RECEIVED), default="simplify")
+    parser.add_argument(
+        "--received", nargs="+", choices=sorted(RECEIVED), default=["simplify", "crop"]
+    )
     parser.add_argument("--out", type=Path)
     parser.add_argument("--reuse", type=Path, help="a folder an earlier run built")
     args = parser.parse_args()
     lines = [
-        "| mesh | one informed read s | trace, "
+        "| mesh | received | one informed read s | trace, "
         f"{args.assets} assets s | ratio | found | candidates tried | looks |",
-        "|---|---:|---:|---:|---|---:|---:|",
+        "|---|---|---:|---:|---:|---|---:|---:|",
     ]
     with tempfile.TemporaryDirectory() as scratch:
         big = os.path.join(scratch, "big.db")
@@ -162,30 +165,36 @@ def main() -> int:
             one = os.path.join(scratch, f"one-{m}.db")
             with Registry.open(big, create=False) as source, Registry.open(one) as target:
                 copy_asset(source, target, m)
-            _, f = read_mesh(MESHES / f"{m}.ply")
-            v = np.load(Path(scratch) / f"{m}.npy")
-            for name, options in RECEIVED[args.received]:
-                v, f = apply_attack(name, v, f, **options)
-            times: dict[str, list[float]] = {"one": [], "big": []}
-            found = None
-            for _ in range(args.repeat):
-                for label, db in (("one", one), ("big", big)):
-                    with Registry.open(db, create=False) as registry:
-                        t = time.perf_counter()
-                        traced = Tracer(v, f, registry, max_faces=MAX_FACES).trace(key=KEY)
-                        times[label].append(time.perf_counter() - t)
-                    if label == "big":
-                        found = traced
-            a, b = float(np.median(times["one"])), float(np.median(times["big"]))
-            assert found is not None
-            ok = found.detected and found.report.get("asset") == m
-            lines.append(
-                f"| {m} | {a:.2f} | {b:.2f} | {b / a:.2f} | {'yes' if ok else 'NO'} | "
-                f"{len({c['asset_id'] for c in found.report['candidates']})} | "
-                f"{len(found.report['candidates'])} |"
-            )
-    steps = ", then ".join(f"{n} {o}" for n, o in RECEIVED[args.received])
-    lines.append(f"\nreceived: {steps}; median of {args.repeat}")
+            _, faces = read_mesh(MESHES / f"{m}.ply")
+            marked = np.load(Path(scratch) / f"{m}.npy")
+            for received in args.received:
+                v, f = marked, faces
+                for name, options in RECEIVED[received]:
+                    v, f = apply_attack(name, v, f, **options)
+                times: dict[str, list[float]] = {"one": [], "big": []}
+                found = None
+                for _ in range(args.repeat):
+                    for label, db in (("one", one), ("big", big)):
+                        with Registry.open(db, create=False) as registry:
+                            t = time.perf_counter()
+                            traced = Tracer(v, f, registry, max_faces=MAX_FACES).trace(key=KEY)
+                            times[label].append(time.perf_counter() - t)
+                        if label == "big":
+                            found = traced
+                a, b = float(np.median(times["one"])), float(np.median(times["big"]))
+                assert found is not None
+                ok = found.detected and found.report.get("asset") == m
+                looks = found.report["candidates"]
+                lines.append(
+                    f"| {m} | {received} | {a:.2f} | {b:.2f} | {b / a:.2f} | "
+                    f"{'yes' if ok else 'NO'} | {len({c['asset_id'] for c in looks})} | "
+                    f"{len(looks)} |"
+                )
+    lines.append("")
+    for received in args.received:
+        steps = ", then ".join(f"{n} {o}" for n, o in RECEIVED[received])
+        lines.append(f"received {received}: {steps}")
+    lines.append(f"median of {args.repeat} runs each")
     lines.append(f"registry: {held} assets, filled in {fill:.0f} s")
     text = "\n".join(lines)
     print(text)
