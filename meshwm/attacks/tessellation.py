@@ -10,6 +10,7 @@ import numpy as np
 import pymeshlab
 from numpy.typing import NDArray
 
+from meshwm._validate import check_mesh
 from meshwm.attacks._meshlab import run_meshlab
 from meshwm.attacks.params import Mesh, check_options
 
@@ -28,12 +29,21 @@ def simplify(
     ``planarquadric=True`` (better on flat regions), ``qualitythr=0.3`` and
     ``autoclean=True``, i.e. MeshLab's defaults plus the three ``preserve*`` options.  The
     result has the target face count up to a face or two.  ``seed`` is ignored.
+
+    The mesh is decimated in a frame of unit bounding-box diagonal centred on its box, then
+    put back: MeshLab's quadric decimation is not scale-invariant (at a diagonal of 0.01 its
+    output's area was 1.48× bunny's and 1.62× igea's; at 1 to 100, within 0.1 % of the
+    input's), and a random similarity before it must not turn a decimation into a wreck.
     """
     keep = check_options("simplify", keep_fraction=keep_fraction)["keep_fraction"]
-    target = max(1, round(keep * len(np.asarray(faces))))
-    return run_meshlab(
-        vertices,
-        faces,
+    v, f = check_mesh(vertices, faces)
+    target = max(1, round(keep * len(f)))
+    low, high = v.min(axis=0), v.max(axis=0)
+    centre = 0.5 * (low + high)
+    size = float(np.linalg.norm(high - low)) or 1.0
+    unit, out_faces = run_meshlab(
+        (v - centre) / size,
+        f,
         lambda ms: ms.meshing_decimation_quadric_edge_collapse(
             targetfacenum=target,
             qualitythr=0.3,
@@ -46,6 +56,7 @@ def simplify(
             autoclean=True,
         ),
     )
+    return unit * size + centre, out_faces
 
 
 def subdivide_midpoint(
