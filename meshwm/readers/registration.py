@@ -100,7 +100,7 @@ class Registration(NamedTuple):
     rms: float
     overlap: float
     hypotheses: int
-    settled: bool = True
+    settled: bool
 
     def apply(self, points: NDArray) -> NDArray[np.float64]:
         """Received coordinates (..., 3) into the reference's frame."""
