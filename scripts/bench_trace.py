@@ -3,15 +3,17 @@
 The registry holds the development meshes (two marked copies each) and ``--assets`` in all:
 the others are made from the development meshes by random smooth deformations (an anisotropic
 scale and a bend, from SHA-256 of their index), each with its own shape descriptor, reference
-(the deformed reference points) and one copy.  For each mesh, its first copy is moved by a
-random similarity and simplified to 50 % (``--received simplify``) or, moved by the same
-similarity, cropped by 30 % (``crop``: the case the shape descriptor ranks worst); then (a)
-traced against a registry of its own asset alone (one informed read: descriptor, pose,
-offsets, the copies' tests), (b) traced against the full registry; median of ``--repeat``
-runs each, whole ``Tracer(...).trace(...)`` calls.
+(the deformed reference points, anchors and their normals), probe and one copy: about a hundred
+near-duplicates of each development mesh, some within a few per cent of it.  For each mesh, its
+first copy is moved by a random similarity, then simplified to 50 % (``--received simplify``),
+Loop-subdivided (``loop``), remeshed isotropically (``isotropic``: MeshLab, 3 iterations) or
+cropped by 30 % (``crop``: the case the shape descriptor ranks worst); then (a) traced
+against a registry of its own asset alone (one informed read: descriptor, pose, offsets, the
+copies' tests), (b) traced against the full registry; median of ``--repeat`` runs each, whole
+``Tracer(...).trace(...)`` calls.
 
     python scripts/bench_trace.py [--assets 1000] [--meshes spot igea ...] [--repeat 3]
-        [--received simplify crop] [--out FILE] [--reuse DIR]
+        [--received simplify loop isotropic crop] [--out FILE] [--reuse DIR]
 
 ``--reuse DIR``: the registry and marked copies ``scripts/null_informed.py`` or an earlier run
 built (``DIR/registry.db``, ``DIR/<mesh>.npy``), instead of embedding again.
@@ -40,12 +42,15 @@ from meshwm.apps.registry import AssetEntry, CopyEntry, Registry
 from meshwm.attacks import apply_attack
 from meshwm.mesh.io import read_mesh
 from meshwm.readers.informed import REFERENCE_SIZE, Reference, seal_signature
+from meshwm.readers.probe import PROBE, make_probe
 from meshwm.readers.registration import shape_descriptor
 from meshwm.watermark.trace import Tracer
 
 #: What happens to the copy before it is traced: ``--received``.
 RECEIVED: dict[str, list[tuple[str, dict]]] = {
     "simplify": [("similarity", {"seed": 11}), ("simplify", {"seed": 1, "keep_fraction": 0.5})],
+    "loop": [("similarity", {"seed": 11}), ("subdivide_loop", {})],
+    "isotropic": [("similarity", {"seed": 11}), ("remesh_isotropic", {"iterations": 3})],
     "crop": [("similarity", {"seed": 11}), ("crop", {"seed": 1, "fraction": 0.3})],
 }
 
@@ -63,6 +68,20 @@ def _deform(x: np.ndarray, k: int, centre: np.ndarray, size: float) -> np.ndarra
     return y + centre
 
 
+def _deform_normals(
+    x: np.ndarray, normals: np.ndarray, k: int, centre: np.ndarray, size: float
+) -> np.ndarray:
+    """The normals of :func:`_deform`'s surface at the deformed ``x``: the inverse transpose
+    of its Jacobian applied to ``normals``, unit length."""
+    a = 0.6 + 0.8 * _uniform("scale", k, count=3)
+    bend = (_uniform("bend", k, count=1)[0] - 0.5) * 0.6
+    jac = np.zeros((len(x), 3, 3))
+    jac[:, 0, 0], jac[:, 1, 1], jac[:, 2, 2] = a
+    jac[:, 2, 0] = 2 * bend * a[0] ** 2 * (x[:, 0] - centre[0]) / size
+    out = np.einsum("pji,pj->pi", np.linalg.inv(jac), normals)
+    return out / np.maximum(np.linalg.norm(out, axis=1, keepdims=True), 1e-300)
+
+
 def decoys(registry: Registry, count: int) -> None:
     """``count`` deformed development meshes as assets, one random copy each."""
     meshes = []
@@ -78,7 +97,11 @@ def decoys(registry: Registry, count: int) -> None:
         v, f = meshes[i]
         centre, size = v.mean(axis=0), float(np.ptp(v, axis=0).max())
         ref = bases[i]
-        moved = ref._replace(points=_deform(ref.points, k, centre, size))
+        moved = ref._replace(
+            points=_deform(ref.points, k, centre, size),
+            anchors=_deform(ref.anchors, k, centre, size),
+            anchor_normals=_deform_normals(ref.anchors, ref.anchor_normals, k, centre, size),
+        )
         sig = np.sin(np.arange(len(ref.cells)) * (k + 1) * 0.37)
         registry.record_embed(
             AssetEntry(
@@ -87,7 +110,7 @@ def decoys(registry: Registry, count: int) -> None:
                 vertices=len(v),
                 faces=len(f),
                 descriptor=shape_descriptor(_deform(v, k, centre, size), f),
-                references={REFERENCE_SIZE: moved.to_bytes()},
+                references={REFERENCE_SIZE: moved.to_bytes(), PROBE: make_probe(moved.anchors)},
             ),
             CopyEntry(
                 payload=f"{k:016x}",
@@ -105,13 +128,17 @@ def copy_asset(source: Registry, target: Registry, name: str) -> None:
     (asset,) = [a for a in source.assets() if a.name == name]
     ids, table = source.descriptors()
     descriptor = table[int(np.flatnonzero(ids == asset.id)[0])]
+    references = dict(source.references(asset.id))
+    if PROBE not in references:  # recorded before probes: what embed records now
+        anchors = Reference.from_bytes(references[REFERENCE_SIZE]).anchors
+        references[PROBE] = make_probe(anchors)
     entry = AssetEntry(
         name=asset.name,
         input_sha256=asset.input_sha256,
         vertices=asset.vertices,
         faces=asset.faces,
         descriptor=descriptor,
-        references=source.references(asset.id),
+        references=references,
     )
     for c in source.copies(asset.id):
         target.record_embed(
@@ -133,9 +160,7 @@ def main() -> int:
     parser.add_argument("--assets", type=int, default=1000)
     parser.add_argument("--meshes", nargs="+", default=["spot", "fandisk", "kitten", "igea"])
     parser.add_argument("--repeat", type=int, default=3)
-    parser.add_argument(
-        "--received", nargs="+", choices=sorted(RECEIVED), default=["simplify", "crop"]
-    )
+    parser.add_argument("--received", nargs="+", choices=sorted(RECEIVED), default=list(RECEIVED))
     parser.add_argument("--out", type=Path)
     parser.add_argument("--reuse", type=Path, help="a folder an earlier run built")
     args = parser.parse_args()

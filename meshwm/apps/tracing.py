@@ -98,6 +98,7 @@ def record_copies(
         make_reference,
         seal_signature,
     )
+    from meshwm.readers.probe import PROBE, make_probe
     from meshwm.readers.registration import shape_descriptor
 
     out = []
@@ -116,7 +117,7 @@ def record_copies(
             vertices=len(mesh.vertices),
             faces=len(mesh.faces),
             descriptor=shape_descriptor(mesh.vertices, mesh.faces),
-            references={REFERENCE_SIZE: reference.to_bytes()},
+            references={REFERENCE_SIZE: reference.to_bytes(), PROBE: make_probe(reference.anchors)},
         )
         copy = CopyEntry(
             payload=mesh.payload,

@@ -1,17 +1,19 @@
 """Trace a received mesh to a registered copy: which asset, which copy, how sure.
 
 Composition only: the registry's shape descriptors pick the candidate assets
-(:func:`meshwm.readers.registration.shape_descriptor`), each candidate's reference gives the
+(:func:`meshwm.readers.registration.shape_descriptor`) and their probes order them
+(:func:`meshwm.readers.probe.probe_residuals`: among near-duplicates, the one the received
+surface fits first), each candidate's reference gives the
 pose (:func:`meshwm.readers.registration.register`) and the received offsets
 (:func:`meshwm.readers.informed.received_offsets`) — and, when the received mesh has the asset's
 own vertices and faces, the offsets through that correspondence
 (:func:`meshwm.readers.informed.same_mesh_offsets`) —, and each copy's signature, unsealed with
 the key, is tested against them (:func:`meshwm.readers.informed.identify`).  Candidates are tried
-in descriptor order, each first through its principal frames (cheap), then those whose frames
-did not fit through the rotations spread over SO(3); the first that identifies a copy stops the
-search.  The decision counts every hypothesis that could have been tried (every candidate ×
-pose × copy, each pose tried among them), so stopping early never raises the false-positive
-rate.
+in that order (:func:`ranked_assets`), each first through its principal frames (cheap), then
+those whose frames did not fit through the rotations spread over SO(3); the first that
+identifies a copy stops the search.  The decision counts every hypothesis that could have been
+tried (every candidate × pose × copy, each pose tried among them), so stopping early never
+raises the false-positive rate.
 
 The registry is anything with the methods of :class:`RegistryView` (the storage lives in
 :mod:`meshwm.apps.registry`; this module does not import it).
@@ -36,21 +38,26 @@ from meshwm.readers.informed import (
     same_mesh_offsets,
     unseal_signature,
 )
+from meshwm.readers.probe import PROBE, PROBE_FIT, probe_residuals
 from meshwm.readers.registration import descriptor_distance, register, shape_descriptor
 
 __all__ = [
     "CANDIDATES",
     "MAX_REGISTRATION_RMS",
+    "PRESELECTED",
     "VERTEX_HYPOTHESES",
     "RegistryView",
     "Traced",
     "Tracer",
     "nearest_assets",
+    "ranked_assets",
     "trace",
 ]
 
 #: Candidate assets tried, nearest descriptors first.
 CANDIDATES = 10
+#: Nearest descriptors whose probes are measured, to pick the candidates among them.
+PRESELECTED = 100
 #: A pose whose residual (over the reference's diagonal) is larger than this is not the asset.
 MAX_REGISTRATION_RMS = 0.01
 #: Readings through the received mesh's own vertices (the same mesh as the asset), per copy:
@@ -64,6 +71,8 @@ class RegistryView(Protocol):
     def descriptors(self) -> tuple[NDArray[np.int64], NDArray[np.float64]]: ...
 
     def references(self, asset_id: int) -> Mapping[int, bytes]: ...
+
+    def references_of(self, asset_ids: Sequence[int], *, n: int) -> Mapping[int, bytes]: ...
 
     def copies(self, asset_id: int | None = None) -> Sequence[Any]: ...
 
@@ -103,6 +112,41 @@ def nearest_assets(
         return []
     distance = descriptor_distance(shape_descriptor(vertices, faces), table)
     return [int(ids[i]) for i in np.argsort(distance, kind="stable")[:count]]
+
+
+def ranked_assets(
+    registry: RegistryView,
+    vertices: NDArray,
+    faces: NDArray,
+    *,
+    count: int = CANDIDATES,
+    preselected: int = PRESELECTED,
+) -> list[int]:
+    """The candidate assets of a received mesh, the likeliest first.
+
+    The ``preselected`` nearest shape descriptors (:func:`nearest_assets`), then among them
+    those whose probe fits the received surface (:func:`meshwm.readers.probe.probe_residuals`
+    at most :data:`~meshwm.readers.probe.PROBE_FIT`) by their residual, then the others in
+    descriptor order (a cropped copy fits no probe: its frame moved); the first ``count``.
+    Which assets are tried depends on the received mesh and the registry only, never on a key.
+
+    Parameters
+    ----------
+    registry : RegistryView
+    vertices, faces : array_like
+        The received mesh.
+    count, preselected : int, optional
+
+    Returns
+    -------
+    list of int
+    """
+    near = nearest_assets(registry, vertices, faces, count=max(count, preselected))
+    probes = registry.references_of(near, n=PROBE)
+    residual = probe_residuals(vertices, faces, [probes.get(a) for a in near])
+    fits = [i for i in np.argsort(residual, kind="stable") if residual[i] <= PROBE_FIT]
+    rest = [i for i in range(len(near)) if not residual[i] <= PROBE_FIT]
+    return [near[i] for i in fits + rest][:count]
 
 
 class Traced(NamedTuple):
@@ -175,7 +219,7 @@ class Tracer:
             raise ValueError(f"candidates must be a positive integer, got {candidates!r}")
         self._v, self._f = check_mesh(vertices, faces, max_faces=max_faces)
         self._registry = registry
-        self._order = nearest_assets(registry, self._v, self._f, count=candidates)
+        self._order = ranked_assets(registry, self._v, self._f, count=candidates)
         self._copies = {a: list(registry.copies(a)) for a in self._order}
         self._posed: dict[tuple[int, bool], _Candidate] = {}
 

@@ -152,7 +152,9 @@ class AssetEntry:
         The asset's shape descriptor, finite; every asset of a registry has the same ``d``.
     references : mapping of int to bytes
         Opaque reference data by grid size ``n`` (>= 1), made by the caller (about 100 KB to
-        2 MB each); an ``n`` the registry already holds for the asset is kept as it was.
+        2 MB each), and under ``n`` = 0 what holds for every grid size (the informed reader's
+        probe, a few KB); an ``n`` the registry already holds for the asset is kept as it was
+        (a later embed of the asset adds the ones it lacks).
     """
 
     name: str
@@ -180,7 +182,7 @@ class AssetEntry:
         for n, data in self.references.items():
             if not isinstance(data, bytes | bytearray | memoryview):
                 raise TypeError(f"references[{n!r}] must be bytes, got {type(data).__name__}")
-            references[_count("reference n", n, low=1)] = bytes(data)
+            references[_count("reference n", n, low=0)] = bytes(data)
         object.__setattr__(self, "references", references)
 
 

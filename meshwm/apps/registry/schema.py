@@ -2,8 +2,9 @@
 
 ``meta(key, value)`` holds ``schema_version`` (:data:`SCHEMA_VERSION`) and, once the first
 asset is recorded, ``descriptor_length``.  ``assets`` has one row per input file (unique by its
-SHA-256), ``references`` the caller's opaque reference blobs per asset and grid size, ``copies``
-one row per marked copy sent out.  Deleting an asset deletes its references and copies
+SHA-256), ``references`` the caller's opaque reference blobs per asset and grid size (0: what
+holds for every size, the informed reader's probe), ``copies`` one row per marked copy sent
+out.  Deleting an asset deletes its references and copies
 (``ON DELETE CASCADE``).  Ids only grow: a removed id is never given to another row.
 """
 

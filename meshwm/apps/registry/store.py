@@ -11,7 +11,7 @@ from __future__ import annotations
 import os
 import random
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from datetime import datetime, timezone
 from types import TracebackType
@@ -411,6 +411,21 @@ class Registry:
                 select(references.c.n, references.c.data)
                 .where(references.c.asset_id == asset_id)
                 .order_by(references.c.n)
+            ).all()
+        return {int(row[0]): bytes(row[1]) for row in rows}
+
+    def references_of(self, asset_ids: Sequence[int], *, n: int) -> dict[int, bytes]:
+        """The reference of grid size ``n`` of each of ``asset_ids`` that has one, read in one
+        query (assets that are not registered or have none are left out)."""
+        ids = sorted({_row_id("asset_id", a) for a in asset_ids})
+        n = _row_id("n", n)
+        if not ids:
+            return {}
+        with self._read() as connection:
+            rows = connection.execute(
+                select(references.c.asset_id, references.c.data).where(
+                    references.c.n == n, references.c.asset_id.in_(ids)
+                )
             ).all()
         return {int(row[0]): bytes(row[1]) for row in rows}
 

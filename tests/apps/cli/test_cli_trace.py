@@ -4,16 +4,21 @@ traced after re-tessellation, the key never stored, bad registries refused clean
 from __future__ import annotations
 
 import json
+import shutil
+import sqlite3
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 from meshwm.apps.cli import main
-from meshwm.apps.registry import Registry
+from meshwm.apps.registry import AssetEntry, CopyEntry, Registry
 from meshwm.attacks import apply_attack
 from meshwm.mesh.io import read_mesh, write_mesh
-from meshwm.watermark.trace import Tracer, nearest_assets
+from meshwm.readers.informed import REFERENCE_SIZE, Reference, seal_signature
+from meshwm.readers.probe import PROBE, make_probe
+from meshwm.readers.registration import shape_descriptor
+from meshwm.watermark.trace import Tracer, nearest_assets, ranked_assets
 
 KEY = "trace-test-key-5f1c"
 IDS = ("0x0123456789abcdef", "0xfedcba9876543210")
@@ -287,3 +292,61 @@ def test_nearest_assets_ranks_by_shape_within_a_choice(registered, assets_dir):
         assert nearest_assets(registry, v, f, count=1) == [ids["kitten"]]
         assert nearest_assets(registry, v, f, among=[ids["spot"]]) == [ids["spot"]]
         assert nearest_assets(registry, v, f, among=[]) == []
+
+
+def test_probes_put_the_received_shape_before_its_near_duplicates(registered, tmp_path):
+    """Six near-duplicates of spot (stretched 4-8 % along one axis), each recorded with the
+    received copy's own shape descriptor, so that the descriptor ranks them all before spot:
+    the probes put spot first, and bob's decimated copy is read at the first look.  Without
+    probes (a registry recorded before them) the twins keep their places."""
+    _, db, outs = registered
+    work = tmp_path / "twins.db"
+    shutil.copy(db, work)
+    v, f = read_mesh(outs[1])
+    v, f = apply_attack("similarity", v, f, seed=5)
+    v, f = apply_attack("simplify", v, f, seed=2, keep_fraction=0.5)
+    with Registry.open(work) as registry:
+        names = {a.id: a.name for a in registry.assets()}
+        (spot,) = [i for i, n in names.items() if n.startswith("spot")]
+        reference = Reference.from_bytes(registry.references(spot)[REFERENCE_SIZE])
+        assert PROBE in registry.references(spot)  # embed recorded it
+        centre = reference.anchors.mean(axis=0)
+        for k, (axis, factor) in enumerate((a, 1 + e) for a in range(3) for e in (0.04, -0.08)):
+            stretch = np.ones(3)
+            stretch[axis] = factor
+            twin = reference._replace(
+                points=(reference.points - centre) * stretch + centre,
+                anchors=(reference.anchors - centre) * stretch + centre,
+            )
+            registry.record_embed(
+                AssetEntry(
+                    name=f"twin-{k}",
+                    input_sha256=f"{k:064x}",
+                    vertices=1,
+                    faces=1,
+                    descriptor=shape_descriptor(v, f),
+                    references={REFERENCE_SIZE: twin.to_bytes(), PROBE: make_probe(twin.anchors)},
+                ),
+                CopyEntry(
+                    payload=f"{k:016x}",
+                    recipient=None,
+                    output_name=f"twin-{k}.ply",
+                    output_sha256="0" * 64,
+                    n=reference.n,
+                    signature=seal_signature(
+                        np.sin(np.arange(len(twin.cells)) * (k + 1.0)), twin, key=KEY
+                    ),
+                ),
+            )
+        twins = [a.id for a in registry.assets() if a.name.startswith("twin-")]
+        assert set(nearest_assets(registry, v, f, count=6)) == set(twins)
+        assert ranked_assets(registry, v, f)[0] == spot
+        traced = Tracer(v, f, registry).trace(key=KEY)
+        assert traced.detected and traced.report["recipient"] == "bob", traced.report
+        assert [c["asset_id"] for c in traced.report["candidates"]] == [spot]
+    # A registry recorded before probes: the descriptor's order, unchanged.
+    with sqlite3.connect(work) as connection:
+        connection.execute('DELETE FROM "references" WHERE n = 0')
+    with Registry.open(work, create=False) as registry:
+        assert ranked_assets(registry, v, f) == nearest_assets(registry, v, f, count=10)
+        assert ranked_assets(registry, v, f).index(spot) >= 6

@@ -92,7 +92,7 @@ def test_bad_copy_entries(change, error, match):
         ({"vertices": -1}, ValueError, "vertices must be >= 0"),
         ({"descriptor": np.ones((2, 2))}, ValueError, "non-empty 1-D"),
         ({"descriptor": np.array([1.0, np.nan])}, ValueError, "finite"),
-        ({"references": {0: b"x"}}, ValueError, "reference n must be >= 1"),
+        ({"references": {-1: b"x"}}, ValueError, "reference n must be >= 0"),
         ({"references": {64: "text"}}, TypeError, "references.64. must be bytes"),
     ],
 )
