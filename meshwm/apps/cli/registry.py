@@ -162,7 +162,10 @@ def _show(registry: Registry, asset_id: int, *, as_json: bool) -> None:
     print(f"  input sha256  {asset.input_sha256}")
     print(f"  size          {asset.vertices} vertices, {asset.faces} faces")
     print(f"  recorded      {asset.created}")
-    references = ", ".join(f"N={n}: {size} bytes" for n, size in sizes.items()) or "none"
+    references = (
+        ", ".join(f"{f'N={n}' if n else 'probe'}: {size} bytes" for n, size in sizes.items())
+        or "none"
+    )
     print(f"  references    {references}")
     print(f"  copies        {asset.copies}")
     for copy in copies:

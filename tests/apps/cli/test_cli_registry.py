@@ -21,7 +21,9 @@ MARK = "mark:" + "ef" * 32
 def filled(target) -> tuple[str, int, int]:
     """A registry of two assets: the first with two copies, the second with one."""
     with Registry.open(target) as registry:
-        first, _ = registry.record_embed(make_asset(1), make_copy(1, payload=TEXT_ID))
+        first, _ = registry.record_embed(
+            make_asset(1, sizes=(0, 64, 128)), make_copy(1, payload=TEXT_ID)
+        )
         registry.record_embed(make_asset(1), make_copy(2, payload=MARK, recipient=None))
         second, _ = registry.record_embed(make_asset(2), make_copy(3))
     return target, first, second
@@ -66,12 +68,12 @@ def test_show(filled, capsys):
     assert main(["registry", "show", target, str(first)]) == 0
     out = capsys.readouterr().out
     assert out.startswith(f"asset {first}  asset1.ply\n")
-    assert "references    N=64: 1000 bytes, N=128: 1000 bytes\n" in out
+    assert "references    probe: 1000 bytes, N=64: 1000 bytes, N=128: 1000 bytes\n" in out
     assert "size          1001 vertices, 2001 faces" in out
     assert out.count("  copy ") == 2 and '"strength": 1.0' in out
     assert main(["registry", "show", target, str(first), "--json"]) == 0
     report = json.loads(capsys.readouterr().out)
-    assert report["references"] == {"64": 1000, "128": 1000}
+    assert report["references"] == {"0": 1000, "64": 1000, "128": 1000}
     assert report["asset"]["copy_count"] == 2 and len(report["copies"]) == 2
 
 

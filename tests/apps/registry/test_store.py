@@ -69,6 +69,28 @@ def test_a_second_embed_of_the_same_input_adds_a_copy_not_an_asset(target):
         assert [c.recipient for c in registry.copies(first[0])] == ["vendor", None]
 
 
+def test_references_of_many_assets_in_one_read(target):
+    """The probes (n = 0) of several assets at once: those that have one; a later embed of an
+    asset recorded before probes adds its probe."""
+    with Registry.open(target) as registry:
+        a, _ = registry.record_embed(make_asset(1, sizes=(0, 128)), make_copy(1))
+        b, _ = registry.record_embed(make_asset(2), make_copy(2))  # recorded without a probe
+        c, _ = registry.record_embed(make_asset(3, sizes=(0, 128)), make_copy(3))
+        got = registry.references_of([c, b, a, a, 10**6], n=0)
+        assert got == {
+            a: make_asset(1, sizes=(0, 128)).references[0],
+            c: make_asset(3, sizes=(0, 128)).references[0],
+        }
+        assert registry.references_of([b], n=256) == {}
+        assert registry.references_of([b], n=128) == {b: make_asset(2).references[128]}
+        assert registry.references_of([], n=0) == {}
+        later = make_asset(2, sizes=(0,))
+        registry.record_embed(later, make_copy(4))
+        assert registry.references_of([b], n=0) == {b: later.references[0]}
+        with pytest.raises(TypeError, match="asset_id must be an int"):
+            registry.references_of(["1"], n=0)  # type: ignore[list-item]
+
+
 def test_find_copies_by_payload(target):
     mark = "mark:" + "ab" * 32
     with Registry.open(target) as registry:
