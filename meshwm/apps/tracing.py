@@ -17,7 +17,14 @@ from numpy.typing import NDArray
 
 from meshwm._validate import DEFAULT_MAX_FACES
 
-__all__ = ["MarkedMesh", "mark_payload", "mesh_sha256", "record_copies", "trace_mesh"]
+__all__ = [
+    "MarkedMesh",
+    "add_probes",
+    "mark_payload",
+    "mesh_sha256",
+    "record_copies",
+    "trace_mesh",
+]
 
 
 class MarkedMesh(NamedTuple):
@@ -130,6 +137,49 @@ def record_copies(
         )
         out.append(registry.record_embed(asset, copy))
     return out
+
+
+def add_probes(registry: Any) -> tuple[list[int], list[int]]:
+    """Give each asset recorded without a probe (by a meshwm before probes) the probe embed
+    records now (:func:`meshwm.readers.probe.make_probe` of its reference's anchors).
+
+    Parameters
+    ----------
+    registry : meshwm.apps.registry.Registry
+        Open for writing.
+
+    Returns
+    -------
+    added, skipped : list of int
+        The assets given a probe; those without a reference to make one from.
+
+    Raises
+    ------
+    RegistryError
+        An asset's reference is damaged (nothing is added for it or after it).
+    """
+    from meshwm.errors import RegistryError
+    from meshwm.readers.informed import REFERENCE_SIZE, Reference
+    from meshwm.readers.probe import PROBE, make_probe
+
+    added, skipped = [], []
+    for asset in registry.assets():
+        sizes = registry.reference_sizes(asset.id)
+        if PROBE in sizes:
+            continue
+        if REFERENCE_SIZE not in sizes:
+            skipped.append(asset.id)
+            continue
+        try:
+            reference = Reference.from_bytes(registry.references(asset.id)[REFERENCE_SIZE])
+            probe = make_probe(reference.anchors)
+        except ValueError as exc:
+            raise RegistryError(
+                f"{registry.name}: asset {asset.id} ({asset.name}): damaged reference ({exc})"
+            ) from None
+        if registry.add_references(asset.id, {PROBE: probe}):
+            added.append(asset.id)
+    return added, skipped
 
 
 def trace_mesh(

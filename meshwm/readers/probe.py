@@ -80,7 +80,9 @@ def make_probe(anchors: NDArray) -> bytes:
     ValueError
         Too few or non-finite anchors.
     """
-    a = np.asarray(anchors, dtype=np.float64)
+    # As the reference stores them (float32): a probe made later from a stored reference
+    # (``meshwm registry upgrade``) is the same bytes.
+    a = np.asarray(anchors, dtype=np.float64).astype(np.float32).astype(np.float64)
     if a.ndim != 2 or a.shape[1] != 3 or len(a) < PROBE_POINTS:
         raise ValueError(f"anchors must have shape (>= {PROBE_POINTS}, 3), got {a.shape}")
     if not np.all(np.isfinite(a)):

@@ -1,4 +1,5 @@
-"""``meshwm registry {list,show,remove} DB``: what the asset registry holds, and removing from it.
+"""``meshwm registry {list,show,remove,upgrade} DB``: what the asset registry holds, removing from
+it, and adding what this meshwm records that an older one did not.
 
 DB is a registry file (SQLite) or a ``postgresql://`` URL; no action here creates one (a
 missing or damaged registry is one line on stderr and exit code 2).  The storage is
@@ -20,7 +21,7 @@ if TYPE_CHECKING:  # pragma: no cover - types only; the library is imported insi
 __all__ = ["HELP", "NAME", "add_parser", "run"]
 
 NAME = "registry"
-HELP = "list, show or remove the assets and marked copies of an asset registry"
+HELP = "list, show, remove or upgrade the assets and marked copies of an asset registry"
 
 
 def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
@@ -62,6 +63,17 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
     what = remove.add_mutually_exclusive_group(required=True)
     what.add_argument("--asset", type=options.positive_int, metavar="ID", help="an asset's id")
     what.add_argument("--copy", type=options.positive_int, metavar="ID", help="a copy's id")
+
+    upgrade = actions.add_parser(
+        "upgrade",
+        help="add probes to assets recorded by an older meshwm",
+        description=(
+            "Give every asset recorded without a probe (by a meshwm before probes) the probe "
+            "embed records now, made from its stored reference: trace then orders it among "
+            "near-duplicate assets as it does new ones. Assets that have one are left as they are."
+        ),
+    )
+    upgrade.add_argument("database", **database)
     parser.set_defaults(run=run)
     return parser
 
@@ -75,6 +87,8 @@ def run(args: argparse.Namespace) -> int:
             _list(registry, as_json=args.json)
         elif args.action == "show":
             _show(registry, args.asset_id, as_json=args.json)
+        elif args.action == "upgrade":
+            _upgrade(registry)
         else:
             _remove(registry, asset_id=args.asset, copy_id=args.copy)
     return EXIT_OK
@@ -172,6 +186,15 @@ def _show(registry: Registry, asset_id: int, *, as_json: bool) -> None:
         print(_copy_line(copy))
         print(f"    output {copy.output_name}  sha256 {copy.output_sha256}  N={copy.n}")
         print(f"    params {json.dumps(copy.params, sort_keys=True)}")
+
+
+def _upgrade(registry: Registry) -> None:
+    from meshwm.apps.tracing import add_probes
+
+    added, skipped = add_probes(registry)
+    total = len(registry.assets())
+    print(f"probes added to {len(added)} of {total} assets", end="")
+    print(f"; {len(skipped)} without a reference to make one from" if skipped else "")
 
 
 def _remove(registry: Registry, *, asset_id: int | None, copy_id: int | None) -> None:

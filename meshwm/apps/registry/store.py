@@ -11,7 +11,7 @@ from __future__ import annotations
 import os
 import random
 import time
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from datetime import datetime, timezone
 from types import TracebackType
@@ -275,6 +275,41 @@ class Registry:
             )
             (copy_id,) = result.inserted_primary_key or (0,)
             return int(asset_id), int(copy_id)
+
+        return self._write(work)
+
+    def add_references(self, asset_id: int, blobs: Mapping[int, bytes]) -> list[int]:
+        """Add to a recorded asset the references (``blobs``, by grid size) of the sizes it has
+        none of yet.
+
+        One transaction; a grid size already stored is kept as it was (a concurrent writer's
+        included).  Returns the grid sizes added, ascending.  RegistryError when there is no
+        asset ``asset_id``.
+        """
+        asset_id = _row_id("asset_id", asset_id)
+        given: dict[int, bytes] = {}
+        for n, data in blobs.items():
+            if isinstance(n, bool) or not isinstance(n, int) or n < 0:
+                raise ValueError(f"reference n must be an int >= 0, got {n!r}")
+            if not isinstance(data, bytes | bytearray | memoryview):
+                raise TypeError(f"references[{n!r}] must be bytes, got {type(data).__name__}")
+            given[int(n)] = bytes(data)
+
+        def work(connection: Connection) -> list[int]:
+            self._require_asset(connection, asset_id)
+            stored = set(
+                connection.execute(
+                    select(references.c.n).where(references.c.asset_id == asset_id)
+                ).scalars()
+            )
+            added = [n for n in sorted(given) if n not in stored]
+            for n in added:
+                connection.execute(
+                    self._insert(references)
+                    .values(asset_id=asset_id, n=n, data=given[n])
+                    .on_conflict_do_nothing(index_elements=["asset_id", "n"])
+                )
+            return added
 
         return self._write(work)
 

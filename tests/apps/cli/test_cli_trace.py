@@ -350,3 +350,29 @@ def test_probes_put_the_received_shape_before_its_near_duplicates(registered, tm
     with Registry.open(work, create=False) as registry:
         assert ranked_assets(registry, v, f) == nearest_assets(registry, v, f, count=10)
         assert ranked_assets(registry, v, f).index(spot) >= 6
+
+
+def test_registry_upgrade_gives_old_assets_the_probes_embed_records(registered, tmp_path, capsys):
+    """A registry recorded before probes (its probes deleted): ``registry upgrade`` adds the
+    same bytes embed recorded, once; a damaged reference is one line and exit code 2."""
+    _, db, _ = registered
+    work = tmp_path / "old.db"
+    shutil.copy(db, work)
+    with Registry.open(work, create=False) as registry:
+        ids = [a.id for a in registry.assets()]
+        recorded = registry.references_of(ids, n=PROBE)
+    assert sorted(recorded) == sorted(ids)
+    with sqlite3.connect(work) as connection:
+        connection.execute('DELETE FROM "references" WHERE n = 0')
+    assert main(["registry", "upgrade", str(work)]) == 0
+    assert capsys.readouterr().out == f"probes added to {len(ids)} of {len(ids)} assets\n"
+    with Registry.open(work, create=False) as registry:
+        assert registry.references_of(ids, n=PROBE) == recorded
+    assert main(["registry", "upgrade", str(work)]) == 0
+    assert capsys.readouterr().out == f"probes added to 0 of {len(ids)} assets\n"
+    with sqlite3.connect(work) as connection:
+        connection.execute('DELETE FROM "references" WHERE n = 0')
+        connection.execute('UPDATE "references" SET data = ? WHERE asset_id = ?', (b"junk", ids[0]))
+    assert main(["registry", "upgrade", str(work)]) == 2
+    err = _one_line_error(capsys)
+    assert f"asset {ids[0]}" in err and "damaged reference" in err

@@ -91,6 +91,23 @@ def test_references_of_many_assets_in_one_read(target):
             registry.references_of(["1"], n=0)  # type: ignore[list-item]
 
 
+def test_add_references_keeps_what_is_stored(target):
+    with Registry.open(target) as registry:
+        a, _ = registry.record_embed(make_asset(1), make_copy(1))
+        assert registry.add_references(a, {0: b"probe", 64: b"other", 256: b"new"}) == [0, 256]
+        stored = registry.references(a)
+        assert stored[0] == b"probe" and stored[256] == b"new"
+        assert stored[64] == make_asset(1).references[64]  # kept as it was
+        assert registry.add_references(a, {0: b"again"}) == []
+        assert registry.references(a)[0] == b"probe"
+        with pytest.raises(RegistryError, match="no asset"):
+            registry.add_references(a + 1, {0: b"x"})
+        with pytest.raises(ValueError, match="reference n must be an int >= 0"):
+            registry.add_references(a, {-1: b"x"})
+        with pytest.raises(TypeError, match="must be bytes"):
+            registry.add_references(a, {0: "text"})  # type: ignore[dict-item]
+
+
 def test_find_copies_by_payload(target):
     mark = "mark:" + "ab" * 32
     with Registry.open(target) as registry:
