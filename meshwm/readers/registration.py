@@ -41,6 +41,7 @@ from meshwm.readers.descriptor import (
 __all__ = [
     "DESCRIPTOR_LENGTH",
     "POSE_HYPOTHESES",
+    "PoseSearch",
     "Registration",
     "descriptor_distance",
     "register",
@@ -516,52 +517,109 @@ def register(
     >>> bool(np.abs(fit.apply(moved) - v).max() < 1e-6), fit.overlap
     (True, 1.0)
     """
-    ref = _prepare(reference_points, reference_normals)
-    v, f = checked_surface(vertices, faces)
-    offset = v.mean(axis=0)  # far from the origin: fit centred coordinates, compose at the end
-    v = v - offset
-    x, _ = surface_samples(v, f, _FINE_POINTS)
-    centre, axes, radius = _frame(x, np.ones(len(x)))
-    scale_guess = ref.radius / radius
-    coarse_x = x[:: max(1, len(x) // _COARSE_POINTS)]
-    refine_x = x[:: max(1, len(x) // _REFINE_POINTS)]
+    search = PoseSearch(vertices, faces, reference_points, reference_normals=reference_normals)
+    return search.spread() if spread else search.frames()
 
-    def coarse(rotations: NDArray[np.float64]) -> list[tuple[float, _Pose]]:
+
+class PoseSearch:
+    """:func:`register` in two steps that share their work: :meth:`frames` (the principal
+    frames only, ``spread=False``), then :meth:`spread` (the full search) without making the
+    frames' part again.
+
+    Parameters
+    ----------
+    vertices, faces, reference_points, reference_normals
+        As :func:`register`.
+
+    Notes
+    -----
+    ``PoseSearch(...).frames()`` is ``register(..., spread=False)`` and ``.spread()``, before
+    or after it, is ``register(...)``, bit for bit.  A tracer looks at every candidate through
+    its frames first and spreads only those that did not fit; keeping the search saves the
+    spread its repeat of the frames (the samples, the reference's trees, four coarse searches
+    and their refinements).
+    """
+
+    def __init__(
+        self,
+        vertices: NDArray,
+        faces: NDArray,
+        reference_points: NDArray,
+        *,
+        reference_normals: NDArray | None = None,
+    ) -> None:
+        self._ref = ref = _prepare(reference_points, reference_normals)
+        v, f = checked_surface(vertices, faces)
+        # Far from the origin: fit centred coordinates, compose at the end.
+        self._offset = v.mean(axis=0)
+        self._v, self._f = v - self._offset, f
+        self._x, _ = surface_samples(self._v, f, _FINE_POINTS)
+        centre, axes, radius = _frame(self._x, np.ones(len(self._x)))
+        self._centre, self._axes = centre, axes
+        self._scale_guess = ref.radius / radius
+        self._coarse_x = self._x[:: max(1, len(self._x) // _COARSE_POINTS)]
+        self._refine_x = self._x[:: max(1, len(self._x) // _REFINE_POINTS)]
+        self._candidates: list[tuple[float, _Pose]] = []
+        self._chosen: tuple[_Pose, float] | None = None
+        self._best: _Pose | None = None
+        self._hypotheses = 0
+        self._stages = 0  # stages made: 1 the frames, 2 the spread too
+        self._stopped = False  # a stage ended on a good fit: no further stage
+
+    def _stage(self, rotations: NDArray[np.float64]) -> None:
+        """One stage of the search from the initial ``rotations`` (see :func:`register`)."""
+        ref, scale_guess, centre = self._ref, self._scale_guess, self._centre
+        self._stages += 1
+        self._hypotheses += len(rotations)
         starts = [
             _Pose(scale_guess, rotation, ref.centre - scale_guess * centre @ rotation.T)
             for rotation in rotations
         ]
-        return sorted((_search(coarse_x, ref, start, scale_guess) for start in starts), key=_first)
-
-    candidates: list[tuple[float, _Pose]] = []
-    chosen: tuple[_Pose, float] | None = None
-    hypotheses = 0
-    searches = [ref.axes @ _FLIPS @ axes.T]
-    if spread:
-        searches.append(ref.axes @ _spread_rotations(_SPREAD) @ axes.T)
-    for rotations in searches:
-        hypotheses += len(rotations)
-        found = coarse(rotations)
+        found = sorted(
+            (_search(self._coarse_x, ref, start, scale_guess) for start in starts), key=_first
+        )
         for score, start in found[:_REFINED]:
             if score > _CLOSE * found[0][0]:
                 break
-            pose, trimmed = _refine(refine_x, ref, start, scale_guess)
-            candidates.append((trimmed, pose))
-        best = min(candidates, key=_first)[1]
-        if _overlap(refine_x, ref, best) < _GOOD_OVERLAP:
-            continue
-        polished = _polish(v, f, ref, best)
-        if chosen is None or polished[1] < chosen[1]:
-            chosen = polished
+            pose, trimmed = _refine(self._refine_x, ref, start, scale_guess)
+            self._candidates.append((trimmed, pose))
+        self._best = min(self._candidates, key=_first)[1]
+        if _overlap(self._refine_x, ref, self._best) < _GOOD_OVERLAP:
+            return
+        polished = _polish(self._v, self._f, ref, self._best)
+        if self._chosen is None or polished[1] < self._chosen[1]:
+            self._chosen = polished
         if polished[1] <= _GOOD_RMS:
-            break
-    settled = chosen is not None and chosen[1] <= _GOOD_RMS and hypotheses == len(_FLIPS)
-    if chosen is None or chosen[1] > _GOOD_RMS:
-        polished = _polish(v, f, ref, best)
-        if chosen is None or polished[1] < chosen[1]:
-            chosen = polished
-    pose, rms = chosen
-    translation = pose.translation - pose.scale * offset @ pose.rotation.T
-    return Registration(
-        pose.scale, pose.rotation, translation, rms, _overlap(x, ref, pose), hypotheses, settled
-    )
+            self._stopped = True
+
+    def _result(self) -> Registration:
+        """The search so far, finished (without changing its state)."""
+        assert self._best is not None
+        chosen = self._chosen
+        settled = chosen is not None and chosen[1] <= _GOOD_RMS and self._hypotheses == len(_FLIPS)
+        if chosen is None or chosen[1] > _GOOD_RMS:
+            polished = _polish(self._v, self._f, self._ref, self._best)
+            if chosen is None or polished[1] < chosen[1]:
+                chosen = polished
+        pose, rms = chosen
+        translation = pose.translation - pose.scale * self._offset @ pose.rotation.T
+        overlap = _overlap(self._x, self._ref, pose)
+        return Registration(
+            pose.scale, pose.rotation, translation, rms, overlap, self._hypotheses, settled
+        )
+
+    def frames(self) -> Registration:
+        """The pose from the four principal frames only (``register(..., spread=False)``)."""
+        if self._stages == 0:
+            self._stage(self._ref.axes @ _FLIPS @ self._axes.T)
+        if self._stages > 1:
+            raise RuntimeError("frames() after spread(): the search has gone past the frames")
+        return self._result()
+
+    def spread(self) -> Registration:
+        """The full search (``register(...)``), the frames' stage made once."""
+        if self._stages == 0:
+            self._stage(self._ref.axes @ _FLIPS @ self._axes.T)
+        if self._stages == 1 and not self._stopped:
+            self._stage(self._ref.axes @ _spread_rotations(_SPREAD) @ self._axes.T)
+        return self._result()

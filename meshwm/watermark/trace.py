@@ -4,7 +4,8 @@ Composition only: the registry's shape descriptors pick the candidate assets
 (:func:`meshwm.readers.registration.shape_descriptor`) and their probes order them
 (:func:`meshwm.readers.probe.probe_residuals`: among near-duplicates, the one the received
 surface fits first), each candidate's reference gives the
-pose (:func:`meshwm.readers.registration.register`) and the received offsets
+pose (:func:`meshwm.readers.registration.register`, in two steps:
+:class:`~meshwm.readers.registration.PoseSearch`) and the received offsets
 (:func:`meshwm.readers.informed.received_offsets`) — and, when the received mesh has the asset's
 own vertices and faces, the offsets through that correspondence
 (:func:`meshwm.readers.informed.same_mesh_offsets`) —, and each copy's signature, unsealed with
@@ -39,7 +40,7 @@ from meshwm.readers.informed import (
     unseal_signature,
 )
 from meshwm.readers.probe import PROBE, PROBE_FIT, probe_residuals
-from meshwm.readers.registration import descriptor_distance, register, shape_descriptor
+from meshwm.readers.registration import PoseSearch, descriptor_distance, shape_descriptor
 
 __all__ = [
     "CANDIDATES",
@@ -222,6 +223,7 @@ class Tracer:
         self._order = ranked_assets(registry, self._v, self._f, count=candidates)
         self._copies = {a: list(registry.copies(a)) for a in self._order}
         self._posed: dict[tuple[int, bool], _Candidate] = {}
+        self._searches: dict[int, tuple[Reference, NDArray[np.float64] | None, PoseSearch]] = {}
 
     @property
     def hypotheses(self) -> int:
@@ -244,15 +246,20 @@ class Tracer:
                 asset_id, None, None, None, copies, 0, None, True, "no reference or no copy"
             )
         else:
-            reference = Reference.from_bytes(blob)
-            same = same_mesh_offsets(reference, self._v, self._f)
-            pose = register(
-                self._v,
-                self._f,
-                reference.anchors,
-                reference_normals=reference.anchor_normals,
-                spread=spread,
-            )
+            if asset_id not in self._searches:  # the reference read and posed once
+                reference = Reference.from_bytes(blob)
+                self._searches[asset_id] = (
+                    reference,
+                    same_mesh_offsets(reference, self._v, self._f),
+                    PoseSearch(
+                        self._v,
+                        self._f,
+                        reference.anchors,
+                        reference_normals=reference.anchor_normals,
+                    ),
+                )
+            reference, same, search = self._searches[asset_id]
+            pose = search.spread() if spread else search.frames()
             moved = pose.scale * self._v @ pose.rotation.T + pose.translation
             offsets = None
             note = None

@@ -26,6 +26,7 @@ from meshwm.gim.remesh import mesh_to_geometry_image
 from meshwm.mesh.io import read_mesh
 from meshwm.readers.registration import (
     DESCRIPTOR_LENGTH,
+    PoseSearch,
     Registration,
     descriptor_distance,
     register,
@@ -229,7 +230,29 @@ def test_principal_frames_alone_settle_or_say_so():
             assert (full.scale, full.rms) == (quick.scale, quick.rms)
         else:
             assert not full.settled and full.hypotheses == 76
+        # In two steps sharing their work: the same poses, bit for bit.
+        search = PoseSearch(moved, fa, reference)
+        _assert_same(search.frames(), quick)
+        _assert_same(search.spread(), full)
     assert 0 < settled < 10
+
+
+def _assert_same(a: Registration, b: Registration) -> None:
+    for x, y in zip(a, b, strict=True):
+        if isinstance(x, np.ndarray):
+            assert x.tobytes() == y.tobytes()
+        else:
+            assert x == y
+
+
+def test_pose_search_spread_alone_is_register_and_frames_after_it_is_refused():
+    v, f = read_mesh(data.path("spot"))
+    reference = surface_points(v, f, 5000)
+    va, fa = apply_attack("crop", v, f, seed=0, fraction=0.3)
+    search = PoseSearch(va, fa, reference)
+    _assert_same(search.spread(), register(va, fa, reference))
+    with pytest.raises(RuntimeError, match="after spread"):
+        search.frames()
 
 
 def test_registration_is_deterministic():
