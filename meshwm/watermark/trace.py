@@ -40,7 +40,12 @@ from meshwm.readers.informed import (
     unseal_signature,
 )
 from meshwm.readers.probe import PROBE, PROBE_FIT, probe_residuals
-from meshwm.readers.registration import PoseSearch, descriptor_distance, shape_descriptor
+from meshwm.readers.registration import (
+    PoseSearch,
+    ReceivedSurface,
+    descriptor_distance,
+    shape_descriptor,
+)
 
 __all__ = [
     "CANDIDATES",
@@ -224,6 +229,7 @@ class Tracer:
         self._copies = {a: list(registry.copies(a)) for a in self._order}
         self._posed: dict[tuple[int, bool], _Candidate] = {}
         self._searches: dict[int, tuple[Reference, NDArray[np.float64] | None, PoseSearch]] = {}
+        self._surface: ReceivedSurface | None = None
 
     @property
     def hypotheses(self) -> int:
@@ -252,8 +258,7 @@ class Tracer:
                     reference,
                     same_mesh_offsets(reference, self._v, self._f),
                     PoseSearch(
-                        self._v,
-                        self._f,
+                        self._received(),
                         reference.anchors,
                         reference_normals=reference.anchor_normals,
                     ),
@@ -280,6 +285,12 @@ class Tracer:
             )
         self._posed[asset_id, spread] = cand
         return cand
+
+    def _received(self) -> ReceivedSurface:
+        """The received mesh prepared for posing, once for every candidate."""
+        if self._surface is None:
+            self._surface = ReceivedSurface(self._v, self._f)
+        return self._surface
 
     def _looks(self) -> Iterator[tuple[int, bool]]:
         """The candidates in descriptor order through their principal frames, then, for those

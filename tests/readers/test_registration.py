@@ -27,6 +27,7 @@ from meshwm.mesh.io import read_mesh
 from meshwm.readers.registration import (
     DESCRIPTOR_LENGTH,
     PoseSearch,
+    ReceivedSurface,
     Registration,
     descriptor_distance,
     register,
@@ -231,7 +232,7 @@ def test_principal_frames_alone_settle_or_say_so():
         else:
             assert not full.settled and full.hypotheses == 76
         # In two steps sharing their work: the same poses, bit for bit.
-        search = PoseSearch(moved, fa, reference)
+        search = PoseSearch(ReceivedSurface(moved, fa), reference)
         _assert_same(search.frames(), quick)
         _assert_same(search.spread(), full)
     assert 0 < settled < 10
@@ -249,7 +250,7 @@ def test_pose_search_spread_alone_is_register_and_frames_after_it_is_refused():
     v, f = read_mesh(data.path("spot"))
     reference = surface_points(v, f, 5000)
     va, fa = apply_attack("crop", v, f, seed=0, fraction=0.3)
-    search = PoseSearch(va, fa, reference)
+    search = PoseSearch(ReceivedSurface(va, fa), reference)
     _assert_same(search.spread(), register(va, fa, reference))
     with pytest.raises(RuntimeError, match="after spread"):
         search.frames()
