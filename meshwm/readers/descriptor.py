@@ -23,6 +23,7 @@ __all__ = [
     "DESCRIPTOR_LENGTH",
     "checked_surface",
     "descriptor_distance",
+    "principal_frame",
     "shape_descriptor",
     "surface_samples",
 ]
@@ -121,6 +122,21 @@ def surface_samples(
     )
     normals = cross[face] / np.maximum(double_area[face], np.finfo(float).tiny)[:, None]
     return points, normals
+
+
+def principal_frame(
+    points: NDArray[np.float64], weights: NDArray[np.float64] | None = None
+) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
+    """Weighted centroid, principal axes (columns, largest first, right-handed) and RMS radius
+    of points (weights: any positive scale, normalised here; default equal)."""
+    w = np.full(len(points), 1.0 / len(points)) if weights is None else weights / weights.sum()
+    centre = w @ points
+    rel = points - centre
+    values, axes = np.linalg.eigh((rel * w[:, None]).T @ rel)
+    axes = axes[:, ::-1]
+    if np.linalg.det(axes) < 0:
+        axes[:, 2] = -axes[:, 2]
+    return centre, axes, float(np.sqrt(max(values.sum(), np.finfo(float).tiny)))
 
 
 def _block(name: str, values: NDArray[np.float64]) -> NDArray[np.float64]:

@@ -27,7 +27,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial import cKDTree
 
-from meshwm.readers.descriptor import checked_surface, surface_samples
+from meshwm.readers.descriptor import checked_surface, principal_frame, surface_samples
 
 __all__ = ["PROBE", "PROBE_FIT", "PROBE_POINTS", "make_probe", "probe_residuals"]
 
@@ -47,17 +47,6 @@ _REACH = 0.1
 _MAGIC = b"PRB1"
 _HEADER = struct.Struct("<4s13dI")
 _FLIPS = np.array([np.diag(d) for d in ((1, 1, 1), (-1, -1, 1), (-1, 1, -1), (1, -1, -1))])
-
-
-def _frame(points: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
-    """Centroid, principal axes (columns, largest first, right-handed) and RMS radius."""
-    centre = points.mean(axis=0)
-    rel = points - centre
-    values, axes = np.linalg.eigh(rel.T @ rel / len(rel))
-    axes = axes[:, ::-1]
-    if np.linalg.det(axes) < 0:
-        axes[:, 2] = -axes[:, 2]
-    return centre, axes, float(np.sqrt(max(values.sum(), np.finfo(float).tiny)))
 
 
 def make_probe(anchors: NDArray) -> bytes:
@@ -87,7 +76,7 @@ def make_probe(anchors: NDArray) -> bytes:
         raise ValueError(f"anchors must have shape (>= {PROBE_POINTS}, 3), got {a.shape}")
     if not np.all(np.isfinite(a)):
         raise ValueError("anchors must be finite")
-    centre, axes, radius = _frame(a)
+    centre, axes, radius = principal_frame(a)
     kept = a[:: len(a) // PROBE_POINTS][:PROBE_POINTS].astype("<f4")
     head = _HEADER.pack(_MAGIC, *centre, *axes.ravel(), radius, len(kept))
     return head + kept.tobytes()
@@ -164,7 +153,7 @@ def probe_residuals(
         return out
     v, f = checked_surface(vertices, faces)
     x, normals = surface_samples(v, f, _RECEIVED_POINTS)
-    centre, axes, radius = _frame(x)
+    centre, axes, radius = principal_frame(x)
     tree = cKDTree(x)
     given = [(i, r) for i, r in enumerate(read) if r is not None]
     # Every probe under the four sign choices of its axes (probe axis k onto received axis k):

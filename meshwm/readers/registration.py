@@ -35,6 +35,7 @@ from meshwm.readers.descriptor import (
     DESCRIPTOR_LENGTH,
     checked_surface,
     descriptor_distance,
+    principal_frame,
     shape_descriptor,
     surface_samples,
 )
@@ -128,20 +129,6 @@ class _Reference(NamedTuple):
     radius: float
 
 
-def _frame(
-    points: NDArray[np.float64], weights: NDArray[np.float64]
-) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
-    """Weighted centroid, principal axes (columns, largest first, right-handed), RMS radius."""
-    w = weights / weights.sum()
-    centre = w @ points
-    rel = points - centre
-    values, axes = np.linalg.eigh((rel * w[:, None]).T @ rel)
-    axes = axes[:, ::-1]
-    if np.linalg.det(axes) < 0:
-        axes[:, 2] = -axes[:, 2]
-    return centre, axes, float(np.sqrt(max(values.sum(), np.finfo(float).tiny)))
-
-
 def _prepare(reference_points: NDArray, reference_normals: NDArray | None) -> _Reference:
     p = np.asarray(reference_points, dtype=np.float64)
     if p.ndim < 2 or p.shape[-1] != 3:
@@ -173,7 +160,7 @@ def _prepare(reference_points: NDArray, reference_normals: NDArray | None) -> _R
         normals[good] = given[good] / length[good, None]
     # Area per point ~ squared distance to the k-th neighbour: a density-compensated frame.
     reach = cKDTree(subset).query(subset, k=_NEIGHBOURS)[0][:, -1]
-    centre, axes, radius = _frame(subset, reach**2 + float(np.median(reach)) ** 2)
+    centre, axes, radius = principal_frame(subset, reach**2 + float(np.median(reach)) ** 2)
     step = max(1, len(points) // _COARSE_REFERENCE)
     ref = _Reference(
         points=points,
@@ -567,7 +554,7 @@ class ReceivedSurface:
         self.offset = v.mean(axis=0)
         self.vertices, self.faces = v - self.offset, f
         self.samples, _ = surface_samples(self.vertices, f, _FINE_POINTS)
-        self.centre, self.axes, self.radius = _frame(self.samples, np.ones(len(self.samples)))
+        self.centre, self.axes, self.radius = principal_frame(self.samples)
         self.coarse = self.samples[:: max(1, len(self.samples) // _COARSE_POINTS)]
         self.refine = self.samples[:: max(1, len(self.samples) // _REFINE_POINTS)]
         self._polish: _PolishSurface | None = None
