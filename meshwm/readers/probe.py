@@ -29,7 +29,7 @@ from scipy.spatial import cKDTree
 
 from meshwm.readers.descriptor import checked_surface, principal_frame, surface_samples
 
-__all__ = ["PROBE", "PROBE_FIT", "PROBE_POINTS", "make_probe", "probe_residuals"]
+__all__ = ["PROBE", "PROBE_FIT", "PROBE_POINTS", "ProbeError", "make_probe", "probe_residuals"]
 
 #: The grid size a probe is recorded under among an asset's references (it holds for every
 #: size).
@@ -47,6 +47,14 @@ _REACH = 0.1
 _MAGIC = b"PRB1"
 _HEADER = struct.Struct("<4s13dI")
 _FLIPS = np.array([np.diag(d) for d in ((1, 1, 1), (-1, -1, 1), (-1, 1, -1), (1, -1, -1))])
+
+
+class ProbeError(ValueError):
+    """A damaged probe: ``index`` is its place in the sequence given."""
+
+    def __init__(self, index: int, message: str) -> None:
+        super().__init__(f"probe {index}: {message}")
+        self.index = index
 
 
 def make_probe(anchors: NDArray) -> bytes:
@@ -144,10 +152,15 @@ def probe_residuals(
     ------
     MeshError
         An unusable received mesh.
-    ValueError
-        A probe that :func:`make_probe` did not make.
+    ProbeError
+        A probe that :func:`make_probe` did not make (a ValueError naming its index).
     """
-    read = [None if p is None else _read(bytes(p)) for p in probes]
+    read = []
+    for i, p in enumerate(probes):
+        try:
+            read.append(None if p is None else _read(bytes(p)))
+        except ValueError as exc:
+            raise ProbeError(i, str(exc)) from None
     out = np.full(len(read), np.inf)
     if all(r is None for r in read):
         return out

@@ -39,7 +39,7 @@ from meshwm.readers.informed import (
     same_mesh_offsets,
     unseal_signature,
 )
-from meshwm.readers.probe import PROBE, PROBE_FIT, probe_residuals
+from meshwm.readers.probe import PROBE, PROBE_FIT, ProbeError, probe_residuals
 from meshwm.readers.registration import (
     PoseSearch,
     ReceivedSurface,
@@ -149,7 +149,10 @@ def ranked_assets(
     """
     near = nearest_assets(registry, vertices, faces, count=max(count, preselected))
     probes = registry.references_of(near, n=PROBE)
-    residual = probe_residuals(vertices, faces, [probes.get(a) for a in near])
+    try:
+        residual = probe_residuals(vertices, faces, [probes.get(a) for a in near])
+    except ProbeError as exc:
+        raise ValueError(f"registered asset {near[exc.index]}: damaged probe") from None
     fits = [i for i in np.argsort(residual, kind="stable") if residual[i] <= PROBE_FIT]
     rest = [i for i in range(len(near)) if not residual[i] <= PROBE_FIT]
     return [near[i] for i in fits + rest][:count]

@@ -12,7 +12,13 @@ from meshwm.attacks import apply_attack
 from meshwm.mesh.io import read_mesh
 from meshwm.readers.descriptor import surface_samples
 from meshwm.readers.informed import ANCHORS
-from meshwm.readers.probe import PROBE_FIT, PROBE_POINTS, make_probe, probe_residuals
+from meshwm.readers.probe import (
+    PROBE_FIT,
+    PROBE_POINTS,
+    ProbeError,
+    make_probe,
+    probe_residuals,
+)
 
 DEV = Path(__file__).resolve().parents[3] / "shared" / "meshes"
 needs_dev = pytest.mark.skipif(not DEV.is_dir(), reason="../shared/meshes is not there")
@@ -84,8 +90,9 @@ def test_a_missing_probe_ranks_last_and_bad_ones_are_refused(spot_mesh):
     assert residual[0] == np.inf and residual[1] <= PROBE_FIT
     assert np.all(probe_residuals(v, f, [None, None]) == np.inf)
     for bad in (b"", good[:-4], b"XXXX" + good[4:], good[:20] + b"\xff" * (len(good) - 20)):
-        with pytest.raises(ValueError, match="not a probe"):
+        with pytest.raises(ProbeError, match="probe 1: not a probe") as info:
             probe_residuals(v, f, [good, bad])
+        assert info.value.index == 1
     with pytest.raises(ValueError, match="anchors must have shape"):
         make_probe(np.zeros((PROBE_POINTS - 1, 3)))
     with pytest.raises(ValueError, match="finite"):

@@ -376,3 +376,22 @@ def test_registry_upgrade_gives_old_assets_the_probes_embed_records(registered, 
     assert main(["registry", "upgrade", str(work)]) == 2
     err = _one_line_error(capsys)
     assert f"asset {ids[0]}" in err and "damaged reference" in err
+
+
+def test_a_damaged_probe_is_one_line_naming_the_asset(registered, tmp_path, capsys):
+    """A decimated copy (the blind readers miss it): the informed reader ranks the candidates
+    and stops at the damaged probe, naming its asset."""
+    _, db, outs = registered
+    work = tmp_path / "damaged.db"
+    shutil.copy(db, work)
+    with Registry.open(work, create=False) as registry:
+        (kitten,) = [a.id for a in registry.assets() if a.name.startswith("kitten")]
+    with sqlite3.connect(work) as connection:
+        connection.execute(
+            'UPDATE "references" SET data = ? WHERE asset_id = ? AND n = 0', (b"junk", kitten)
+        )
+    leaked = _attacked(outs[1], tmp_path / "lod.ply", "simplify", keep_fraction=0.5)
+    code = main(["trace", str(leaked), "--key", KEY, "--registry", str(work)])
+    assert code == 2
+    err = _one_line_error(capsys)
+    assert f"registered asset {kitten}: damaged probe" in err
