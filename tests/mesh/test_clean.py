@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from _dev_meshes import DEV
 from numpy.testing import assert_array_equal
 
 from meshwm.errors import MeshError
@@ -26,7 +27,7 @@ from meshwm.mesh.clean import (
 from meshwm.mesh.io import read_mesh
 
 ASSETS = Path(__file__).parent.parent.parent / "assets"
-COW = Path(__file__).parent.parent.parent.parent / "shared" / "meshes" / "cow.ply"
+COW = DEV / "cow.ply"
 ASSET_NAMES = ("spot", "kitten", "plane_holes")
 #: (unique edges, boundary edges, non-manifold edges) and Euler characteristic of each asset.
 ASSET_EDGES = {"spot": (8784, 0, 0), "kitten": (28341, 0, 0), "plane_holes": (25291, 341, 0)}

@@ -3,10 +3,9 @@ pose and order, better than the asset's near-duplicates; bad probes are refused.
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
+from _dev_meshes import DEV, needs_dev
 
 from meshwm.attacks import apply_attack
 from meshwm.mesh.io import read_mesh
@@ -19,9 +18,6 @@ from meshwm.readers.probe import (
     make_probe,
     probe_residuals,
 )
-
-DEV = Path(__file__).resolve().parents[3] / "shared" / "meshes"
-needs_dev = pytest.mark.skipif(not DEV.is_dir(), reason="../shared/meshes is not there")
 
 
 def _stretched(anchors: np.ndarray, axis: int, factor: float) -> np.ndarray:

@@ -11,12 +11,12 @@ bounding-box diagonal.  ``scripts/check_registration.py`` prints the same figure
 
 from __future__ import annotations
 
-from pathlib import Path
 from typing import Any
 
 import igl
 import numpy as np
 import pytest
+from _dev_meshes import DEV, needs_dev
 from numpy.testing import assert_allclose
 
 from meshwm import data
@@ -33,9 +33,6 @@ from meshwm.readers.registration import (
     register,
     shape_descriptor,
 )
-
-DEV = Path(__file__).resolve().parents[3] / "shared" / "meshes"
-needs_dev = pytest.mark.skipif(not DEV.is_dir(), reason="../shared/meshes is not there")
 
 #: The meshes registered (igea decimated to 20 000 faces for speed).
 MESHES = ["fandisk", "spot", "kitten", "igea"]

@@ -7,11 +7,10 @@ an open synthetic grid, and the welded geometry images of the bundled meshes at 
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 import trimesh
+from _dev_meshes import DEV, needs_dev
 from _recover_grids import MESHES, SIZE, border, shuffle, synthetic_gim
 from numpy.testing import assert_array_equal
 
@@ -257,11 +256,8 @@ def test_triangulated_point_cloud_is_refused():
 # --- the development meshes --------------------------------------------------------------------
 
 
-DEV = Path(__file__).resolve().parents[4] / "shared" / "meshes"
-
-
 @pytest.mark.slow
-@pytest.mark.skipif(not DEV.is_dir(), reason="../shared/meshes is not there")
+@needs_dev
 @pytest.mark.parametrize("path", sorted(DEV.glob("*.ply")), ids=lambda p: p.stem)
 def test_every_development_mesh_reads_back_at_256(path):
     mesh = trimesh.load(path, process=False)
