@@ -20,6 +20,7 @@ from meshwm._validate import check_mesh
 from meshwm.errors import MeshError
 
 __all__ = [
+    "AXIS_FLIPS",
     "DESCRIPTOR_LENGTH",
     "checked_surface",
     "descriptor_distance",
@@ -122,6 +123,11 @@ def surface_samples(
     )
     normals = cross[face] / np.maximum(double_area[face], np.finfo(float).tiny)[:, None]
     return points, normals
+
+
+#: The four proper sign choices of a principal frame's axes (each a diagonal rotation): the
+#: poses a frame alone cannot tell apart.
+AXIS_FLIPS = np.array([np.diag(d) for d in ((1, 1, 1), (-1, -1, 1), (-1, 1, -1), (1, -1, -1))])
 
 
 def principal_frame(

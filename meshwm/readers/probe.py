@@ -27,7 +27,12 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial import cKDTree
 
-from meshwm.readers.descriptor import checked_surface, principal_frame, surface_samples
+from meshwm.readers.descriptor import (
+    AXIS_FLIPS,
+    checked_surface,
+    principal_frame,
+    surface_samples,
+)
 
 __all__ = ["PROBE", "PROBE_FIT", "PROBE_POINTS", "ProbeError", "make_probe", "probe_residuals"]
 
@@ -46,7 +51,6 @@ _KEEP = 0.9
 _REACH = 0.1
 _MAGIC = b"PRB1"
 _HEADER = struct.Struct("<4s13dI")
-_FLIPS = np.array([np.diag(d) for d in ((1, 1, 1), (-1, -1, 1), (-1, 1, -1), (1, -1, -1))])
 
 
 class ProbeError(ValueError):
@@ -173,7 +177,7 @@ def probe_residuals(
     # (probes, flips, points, 3).  The flip is chosen on every 8th point, then measured on all.
     moved = np.stack(
         [
-            np.einsum("pj,fij->fpi", (p - c) * (radius / r), axes @ _FLIPS @ a.T)
+            np.einsum("pj,fij->fpi", (p - c) * (radius / r), axes @ AXIS_FLIPS @ a.T)
             for _, (c, a, r, p) in given
         ]
     )

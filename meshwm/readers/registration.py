@@ -32,6 +32,7 @@ from scipy.spatial import cKDTree
 from meshwm.errors import MeshError
 from meshwm.mesh.edges import unique_edges
 from meshwm.readers.descriptor import (
+    AXIS_FLIPS,
     DESCRIPTOR_LENGTH,
     checked_surface,
     descriptor_distance,
@@ -420,7 +421,6 @@ def _spread_rotations(count: int) -> NDArray[np.float64]:
 
 
 #: The four proper sign flips of a principal frame.
-_FLIPS = np.array([np.diag(d) for d in ((1, 1, 1), (-1, -1, 1), (-1, 1, -1), (1, -1, -1))])
 #: Extra rotations tried when the principal frames do not give a full overlap (crops).
 _SPREAD = 72
 #: A polished pose whose residual (over the diagonal) is above this, though its overlap is
@@ -431,7 +431,7 @@ _GOOD_RMS = 2e-3
 #: The most initial poses :func:`register` tries (its ``hypotheses`` never exceeds it): the
 #: principal frames' four proper sign flips, then the spread over SO(3).  A caller that
 #: decides on the pose counts them all.
-POSE_HYPOTHESES = len(_FLIPS) + _SPREAD
+POSE_HYPOTHESES = len(AXIS_FLIPS) + _SPREAD
 #: Poses from the coarse search refined on the full reference.
 _REFINED = 3
 #: ... those whose coarse residual is within this factor of the best one.
@@ -641,7 +641,8 @@ class PoseSearch:
         """The search so far, finished (without changing its state)."""
         assert self._best is not None
         chosen = self._chosen
-        settled = chosen is not None and chosen[1] <= _GOOD_RMS and self._hypotheses == len(_FLIPS)
+        frames_only = self._hypotheses == len(AXIS_FLIPS)
+        settled = chosen is not None and chosen[1] <= _GOOD_RMS and frames_only
         if chosen is None or chosen[1] > _GOOD_RMS:
             surface = self._received.polish_surface()
             polished = _polish(self._v, self._f, self._ref, self._best, surface)
@@ -657,7 +658,7 @@ class PoseSearch:
     def frames(self) -> Registration:
         """The pose from the four principal frames only (``register(..., spread=False)``)."""
         if self._stages == 0:
-            self._stage(self._ref.axes @ _FLIPS @ self._axes.T)
+            self._stage(self._ref.axes @ AXIS_FLIPS @ self._axes.T)
         if self._stages > 1:
             raise RuntimeError("frames() after spread(): the search has gone past the frames")
         return self._result()
@@ -665,7 +666,7 @@ class PoseSearch:
     def spread(self) -> Registration:
         """The full search (``register(...)``), the frames' stage made once."""
         if self._stages == 0:
-            self._stage(self._ref.axes @ _FLIPS @ self._axes.T)
+            self._stage(self._ref.axes @ AXIS_FLIPS @ self._axes.T)
         if self._stages == 1 and not self._stopped:
             self._stage(self._ref.axes @ _spread_rotations(_SPREAD) @ self._axes.T)
         return self._result()
