@@ -23,6 +23,7 @@ __all__ = [
     "AssetRecord",
     "CopyEntry",
     "CopyRecord",
+    "check_references",
     "decode_descriptor",
     "decode_params",
     "encode_descriptor",
@@ -52,6 +53,26 @@ def _count(name: str, value: object, *, low: int) -> int:
     if value < low:
         raise ValueError(f"{name} must be >= {low}, got {value}")
     return int(value)
+
+
+def check_references(references: object) -> dict[int, bytes]:
+    """Reference blobs by grid size ``n`` (>= 0), checked: a dict of int to bytes.
+
+    Raises
+    ------
+    TypeError
+        Not a mapping, an ``n`` that is not an int, data that is not bytes.
+    ValueError
+        A negative ``n``.
+    """
+    if not isinstance(references, Mapping):
+        raise TypeError(f"references must be a mapping, got {type(references).__name__}")
+    out: dict[int, bytes] = {}
+    for n, data in references.items():
+        if not isinstance(data, bytes | bytearray | memoryview):
+            raise TypeError(f"references[{n!r}] must be bytes, got {type(data).__name__}")
+        out[_count("reference n", n, low=0)] = bytes(data)
+    return out
 
 
 def _text(name: str, value: object) -> str:
@@ -176,14 +197,7 @@ class AssetEntry:
             raise ValueError("descriptor must be finite (it holds NaN or inf)")
         descriptor.setflags(write=False)
         object.__setattr__(self, "descriptor", descriptor)
-        references: dict[int, bytes] = {}
-        if not isinstance(self.references, Mapping):
-            raise TypeError(f"references must be a mapping, got {type(self.references).__name__}")
-        for n, data in self.references.items():
-            if not isinstance(data, bytes | bytearray | memoryview):
-                raise TypeError(f"references[{n!r}] must be bytes, got {type(data).__name__}")
-            references[_count("reference n", n, low=0)] = bytes(data)
-        object.__setattr__(self, "references", references)
+        object.__setattr__(self, "references", check_references(self.references))
 
 
 @dataclass(frozen=True)

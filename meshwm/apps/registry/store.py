@@ -28,6 +28,7 @@ from meshwm.apps.registry.entries import (
     AssetRecord,
     CopyEntry,
     CopyRecord,
+    check_references,
     decode_params,
     encode_descriptor,
     encode_params,
@@ -248,18 +249,7 @@ class Registry:
             asset_id = connection.execute(
                 select(assets.c.id).where(assets.c.input_sha256 == asset.input_sha256)
             ).scalar_one()
-            stored = set(
-                connection.execute(
-                    select(references.c.n).where(references.c.asset_id == asset_id)
-                ).scalars()
-            )
-            for n, data in asset.references.items():
-                if n not in stored:
-                    connection.execute(
-                        self._insert(references)
-                        .values(asset_id=asset_id, n=n, data=data)
-                        .on_conflict_do_nothing(index_elements=["asset_id", "n"])
-                    )
+            self._add_missing(connection, asset_id, asset.references)
             result = connection.execute(
                 copies.insert().values(
                     asset_id=asset_id,
@@ -287,31 +277,32 @@ class Registry:
         asset ``asset_id``.
         """
         asset_id = _row_id("asset_id", asset_id)
-        given: dict[int, bytes] = {}
-        for n, data in blobs.items():
-            if isinstance(n, bool) or not isinstance(n, int) or n < 0:
-                raise ValueError(f"reference n must be an int >= 0, got {n!r}")
-            if not isinstance(data, bytes | bytearray | memoryview):
-                raise TypeError(f"references[{n!r}] must be bytes, got {type(data).__name__}")
-            given[int(n)] = bytes(data)
+        given = check_references(blobs)
 
         def work(connection: Connection) -> list[int]:
             self._require_asset(connection, asset_id)
-            stored = set(
-                connection.execute(
-                    select(references.c.n).where(references.c.asset_id == asset_id)
-                ).scalars()
-            )
-            added = [n for n in sorted(given) if n not in stored]
-            for n in added:
-                connection.execute(
-                    self._insert(references)
-                    .values(asset_id=asset_id, n=n, data=given[n])
-                    .on_conflict_do_nothing(index_elements=["asset_id", "n"])
-                )
-            return added
+            return self._add_missing(connection, asset_id, given)
 
         return self._write(work)
+
+    def _add_missing(
+        self, connection: Connection, asset_id: int, blobs: Mapping[int, bytes]
+    ) -> list[int]:
+        """Insert the references of the grid sizes the asset has none of (inside the caller's
+        transaction); the sizes inserted, ascending."""
+        stored = set(
+            connection.execute(
+                select(references.c.n).where(references.c.asset_id == asset_id)
+            ).scalars()
+        )
+        added = [n for n in sorted(blobs) if n not in stored]
+        for n in added:
+            connection.execute(
+                self._insert(references)
+                .values(asset_id=asset_id, n=n, data=blobs[n])
+                .on_conflict_do_nothing(index_elements=["asset_id", "n"])
+            )
+        return added
 
     def _check_descriptor_length(self, connection: Connection, length: int) -> None:
         """The first asset sets the registry's descriptor length; the others must match it."""
