@@ -3,7 +3,8 @@
 Composition only: the registry's shape descriptors pick the candidate assets
 (:func:`meshwm.readers.registration.shape_descriptor`) and their probes order them
 (:func:`meshwm.readers.probe.probe_residuals`: among near-duplicates, the one the received
-surface fits first), each candidate's reference gives the
+surface fits first; :func:`~meshwm.readers.probe.partial_residuals` where a crop moved the
+received frame), each candidate's reference gives the
 pose (:func:`meshwm.readers.registration.register`, in two steps:
 :class:`~meshwm.readers.registration.PoseSearch`) and the received offsets
 (:func:`meshwm.readers.informed.received_offsets`) — and, when the received mesh has the asset's
@@ -39,7 +40,13 @@ from meshwm.readers.informed import (
     same_mesh_offsets,
     unseal_signature,
 )
-from meshwm.readers.probe import PROBE, PROBE_FIT, ProbeError, probe_residuals
+from meshwm.readers.probe import (
+    PROBE,
+    PROBE_FIT,
+    ProbeError,
+    partial_residuals,
+    probe_residuals,
+)
 from meshwm.readers.registration import (
     PoseSearch,
     ReceivedSurface,
@@ -133,8 +140,11 @@ def ranked_assets(
     The ``preselected`` nearest shape descriptors (:func:`nearest_assets`), then among them
     those whose probe fits the received surface (:func:`meshwm.readers.probe.probe_residuals`
     at most :data:`~meshwm.readers.probe.PROBE_FIT`) by their residual, then the others in
-    descriptor order (a cropped copy fits no probe: its frame moved); the first ``count``.
-    Which assets are tried depends on the received mesh and the registry only, never on a key.
+    descriptor order; the first ``count``.  Where no probe fits in the received frame (a crop
+    moves it) and there are more preselected assets than ``count``, the probes are fitted to
+    the surface instead (:func:`meshwm.readers.probe.partial_residuals`) and those that fit
+    that way come first.  Which assets are tried depends on the received mesh and the registry
+    only, never on a key.
 
     Parameters
     ----------
@@ -146,11 +156,23 @@ def ranked_assets(
     Returns
     -------
     list of int
+
+    Raises
+    ------
+    ValueError
+        A damaged probe in the registry (the message names its asset).
     """
     near = nearest_assets(registry, vertices, faces, count=max(count, preselected))
-    probes = registry.references_of(near, n=PROBE)
+    stored = registry.references_of(near, n=PROBE)
+    probes = [stored.get(a) for a in near]
     try:
-        residual = probe_residuals(vertices, faces, [probes.get(a) for a in near])
+        residual = probe_residuals(vertices, faces, probes)
+        if not np.any(residual <= PROBE_FIT) and len(near) > count:
+            # The pose is searched for in the order of the frame residuals: even in a crop's
+            # moved frame, the right shape's probes tend to fit best.
+            order = np.argsort(residual, kind="stable")
+            partial = partial_residuals(vertices, faces, [probes[i] for i in order])
+            residual[order] = partial
     except ProbeError as exc:
         raise ValueError(f"registered asset {near[exc.index]}: damaged probe") from None
     fits = [i for i in np.argsort(residual, kind="stable") if residual[i] <= PROBE_FIT]

@@ -294,11 +294,48 @@ def test_nearest_assets_ranks_by_shape_within_a_choice(registered, assets_dir):
         assert nearest_assets(registry, v, f, among=[]) == []
 
 
+def _record_twins(registry: Registry, asset_id: int, descriptor: np.ndarray) -> list[int]:
+    """Six near-duplicates of the asset (stretched 4-8 % along one axis), each recorded with
+    ``descriptor`` (the received copy's own, so that the descriptor ranks them all first) and
+    one copy; their ids."""
+    reference = Reference.from_bytes(registry.references(asset_id)[REFERENCE_SIZE])
+    assert PROBE in registry.references(asset_id)  # embed recorded it
+    centre = reference.anchors.mean(axis=0)
+    for k, (axis, factor) in enumerate((a, 1 + e) for a in range(3) for e in (0.04, -0.08)):
+        stretch = np.ones(3)
+        stretch[axis] = factor
+        twin = reference._replace(
+            points=(reference.points - centre) * stretch + centre,
+            anchors=(reference.anchors - centre) * stretch + centre,
+        )
+        registry.record_embed(
+            AssetEntry(
+                name=f"twin-{k}",
+                input_sha256=f"{k:064x}",
+                vertices=1,
+                faces=1,
+                descriptor=descriptor,
+                references={REFERENCE_SIZE: twin.to_bytes(), PROBE: make_probe(twin.anchors)},
+            ),
+            CopyEntry(
+                payload=f"{k:016x}",
+                recipient=None,
+                output_name=f"twin-{k}.ply",
+                output_sha256="0" * 64,
+                n=reference.n,
+                signature=seal_signature(
+                    np.sin(np.arange(len(twin.cells)) * (k + 1.0)), twin, key=KEY
+                ),
+            ),
+        )
+    return [a.id for a in registry.assets() if a.name.startswith("twin-")]
+
+
 def test_probes_put_the_received_shape_before_its_near_duplicates(registered, tmp_path):
-    """Six near-duplicates of spot (stretched 4-8 % along one axis), each recorded with the
-    received copy's own shape descriptor, so that the descriptor ranks them all before spot:
-    the probes put spot first, and bob's decimated copy is read at the first look.  Without
-    probes (a registry recorded before them) the twins keep their places."""
+    """Six near-duplicates of spot recorded with the received copy's own shape descriptor
+    (:func:`_record_twins`): the probes put spot first, and bob's decimated copy is read at the
+    first look.  Without probes (a registry recorded before them) the twins keep their
+    places."""
     _, db, outs = registered
     work = tmp_path / "twins.db"
     shutil.copy(db, work)
@@ -308,37 +345,7 @@ def test_probes_put_the_received_shape_before_its_near_duplicates(registered, tm
     with Registry.open(work) as registry:
         names = {a.id: a.name for a in registry.assets()}
         (spot,) = [i for i, n in names.items() if n.startswith("spot")]
-        reference = Reference.from_bytes(registry.references(spot)[REFERENCE_SIZE])
-        assert PROBE in registry.references(spot)  # embed recorded it
-        centre = reference.anchors.mean(axis=0)
-        for k, (axis, factor) in enumerate((a, 1 + e) for a in range(3) for e in (0.04, -0.08)):
-            stretch = np.ones(3)
-            stretch[axis] = factor
-            twin = reference._replace(
-                points=(reference.points - centre) * stretch + centre,
-                anchors=(reference.anchors - centre) * stretch + centre,
-            )
-            registry.record_embed(
-                AssetEntry(
-                    name=f"twin-{k}",
-                    input_sha256=f"{k:064x}",
-                    vertices=1,
-                    faces=1,
-                    descriptor=shape_descriptor(v, f),
-                    references={REFERENCE_SIZE: twin.to_bytes(), PROBE: make_probe(twin.anchors)},
-                ),
-                CopyEntry(
-                    payload=f"{k:016x}",
-                    recipient=None,
-                    output_name=f"twin-{k}.ply",
-                    output_sha256="0" * 64,
-                    n=reference.n,
-                    signature=seal_signature(
-                        np.sin(np.arange(len(twin.cells)) * (k + 1.0)), twin, key=KEY
-                    ),
-                ),
-            )
-        twins = [a.id for a in registry.assets() if a.name.startswith("twin-")]
+        twins = _record_twins(registry, spot, shape_descriptor(v, f))
         assert set(nearest_assets(registry, v, f, count=6)) == set(twins)
         assert ranked_assets(registry, v, f)[0] == spot
         traced = Tracer(v, f, registry).trace(key=KEY)
@@ -350,6 +357,31 @@ def test_probes_put_the_received_shape_before_its_near_duplicates(registered, tm
     with Registry.open(work, create=False) as registry:
         assert ranked_assets(registry, v, f) == nearest_assets(registry, v, f, count=10)
         assert ranked_assets(registry, v, f).index(spot) >= 6
+
+
+def test_a_cropped_copy_is_told_from_its_near_duplicates(registered, tmp_path):
+    """A 30 % crop of bob's copy among six twins the descriptor ranks first, three candidates
+    tried: no probe fits in the crop's frame, the partial fits put spot first, and the copy is
+    read at the first look.  Without probes spot is not among the three."""
+    _, db, outs = registered
+    work = tmp_path / "twins.db"
+    shutil.copy(db, work)
+    v, f = read_mesh(outs[1])
+    v, f = apply_attack("similarity", v, f, seed=7)
+    v, f = apply_attack("crop", v, f, seed=3, fraction=0.3)
+    with Registry.open(work) as registry:
+        names = {a.id: a.name for a in registry.assets()}
+        (spot,) = [i for i, n in names.items() if n.startswith("spot")]
+        twins = _record_twins(registry, spot, shape_descriptor(v, f))
+        assert set(nearest_assets(registry, v, f, count=6)) == set(twins)
+        assert ranked_assets(registry, v, f, count=3)[0] == spot
+        traced = Tracer(v, f, registry, candidates=3).trace(key=KEY)
+        assert traced.detected and traced.report["recipient"] == "bob", traced.report
+        assert [c["asset_id"] for c in traced.report["candidates"]] == [spot]
+    with sqlite3.connect(work) as connection:
+        connection.execute('DELETE FROM "references" WHERE n = 0')
+    with Registry.open(work, create=False) as registry:
+        assert spot not in ranked_assets(registry, v, f, count=3)
 
 
 def test_registry_upgrade_gives_old_assets_the_probes_embed_records(registered, tmp_path, capsys):
