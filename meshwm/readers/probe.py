@@ -230,8 +230,14 @@ _BATCH = 4
 _BATCHES = 20
 #: Probes refined again, to convergence, after the shared pose (the best fits).
 _REFINED = 8
-#: A probe whose partial residual is at most this gives the pose the others start from.
-_POSE_FIT = 0.02
+#: A probe whose partial residual is at most this gives a pose the others start from; the
+#: search ends once a probe fits within :data:`_FIT`.
+_POSE_FIT = 0.03
+_FIT = PROBE_FIT
+#: Poses shared in turn, each from the best fit of the one before while that is this much
+#: better.
+_ROUNDS = 2
+_BETTER = 0.5
 #: Neighbours (among a probe's own points) of a probe point's normal.
 _PROBE_NEIGHBOURS = 8
 
@@ -305,6 +311,13 @@ class _Surface(NamedTuple):
     axes: NDArray[np.float64]
     radius: float
     tree: cKDTree
+
+
+def _sizes(points: NDArray[np.float64]) -> NDArray[np.float64]:
+    """RMS distance of each row's points (b, k, 3) to their centroid."""
+    rel = points - points.mean(axis=1, keepdims=True)
+    result: NDArray[np.float64] = np.sqrt(np.mean(np.sum(rel**2, axis=-1), axis=1))
+    return result
 
 
 def _point_normals(points: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -419,6 +432,41 @@ def _probes_to_received(
     return y, np.sqrt(np.mean(kept**2, axis=1)) / surface.radius
 
 
+def _shared_fits(
+    surface: _Surface,
+    points: NDArray[np.float64],
+    source: NDArray[np.float64],
+    fitted: NDArray[np.float64],
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Every probe's ``points`` (p, k, 3) placed by the similarity that took ``source`` (k, 3)
+    onto ``fitted``, then fitted from there (:func:`partial_residuals`): their residuals and
+    the points fitted."""
+    scale, rotation, mu_p, mu_y = _umeyama_batch(
+        source[None], fitted[None], np.ones((1, len(source)))
+    )
+    placed = scale[0] * (points - mu_p[0]) @ rotation[0].T + mu_y[0]
+    posed, _ = _received_to_probes(
+        surface, placed, None, samples=_SHARE_SAMPLES, point_steps=4, plane_steps=0
+    )
+    moved, residual = _probes_to_received(surface, posed, steps=3)
+    # The best few again, to convergence: a pose shared from a re-proportioned variant
+    # leaves the asset itself a few steps short of its own fit.
+    top = np.argsort(residual, kind="stable")[:_REFINED]
+    posed, _ = _received_to_probes(
+        surface,
+        moved[top],
+        _point_normals(moved[top]),
+        samples=_SEARCH_SAMPLES,
+        point_steps=0,
+        plane_steps=_PLANE_STEPS,
+    )
+    again, refined = _probes_to_received(surface, posed, steps=6)
+    better = refined < residual[top]
+    residual[top[better]] = refined[better]
+    moved[top[better]] = again[better]
+    return residual, moved
+
+
 def partial_residuals(
     vertices: NDArray, faces: NDArray, probes: Sequence[bytes | None]
 ) -> NDArray[np.float64]:
@@ -457,14 +505,17 @@ def partial_residuals(
     the probe; the closest 80 %: a crop's samples all lie on the asset, not the probe's points
     on the crop; the scale within a factor 1.8 of the frames'); the best sign choice is refined
     the other way, probe points onto the received samples' tangent planes (6 steps, the
-    closest 60 %).  The first group with a probe fitting within 0.02 of the radius ends the
-    search (at most 20 groups), and that probe's pose, in registry coordinates, places every
-    probe: near-duplicates of one asset (its variants, LODs, a re-proportioned copy) share its
-    frame.  From there each is fitted by 4 point-to-point iterations on 128 samples and 3
-    point-to-plane steps the other way, and the 8 that fit best by the full 16 and 6 steps
-    again (a pose shared from a re-proportioned variant leaves the asset itself short of its
-    own fit).  A probe's residual is the smallest of its fits.  Deterministic: no random
-    start, fixed samples (:func:`surface_samples`).
+    closest 60 %).  A probe of the group fitting within 0.03 of the radius gives a pose, in
+    registry coordinates, that places every probe: near-duplicates of one asset (its
+    variants, LODs, a re-proportioned copy) share its frame.  From there each is fitted by 4
+    point-to-point iterations on 128 samples and 3 point-to-plane steps the other way, and the
+    8 that fit best by the full 16 and 6 steps again (a pose shared from a re-proportioned
+    variant leaves the asset itself short of its own fit); where the best of those fits at
+    least twice as well as the pose's source, its pose is shared once more.  The search ends
+    when a probe fits within :data:`PROBE_FIT` (at most 20 groups).  A fit whose scale left
+    1.8 times the frames' ratio (RMS radii) is no fit: ICP can shrink a probe onto a patch.  A
+    probe's residual is the smallest of its fits.  Deterministic: no random start, fixed
+    samples (:func:`surface_samples`).
 
     A crop can turn the frame beyond what ICP from the four sign choices reaches (as it can
     the registration's, which then searches rotations spread over SO(3)): on 30 random 30 %
@@ -482,7 +533,15 @@ def partial_residuals(
     points = np.stack([r[3] for _, r in known])
     # Each probe's points in its own frame's units: where its search starts.
     unit = np.stack([(p - c) / r for _, (c, _, r, p) in known])
-    pose: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None  # (points, placed)
+    unit_size = _sizes(unit)
+
+    def scaled(index: NDArray[np.intp], fits: NDArray[np.float64]) -> NDArray[np.bool_]:
+        """Fits whose scale is within 1.8 times the frames' (the RMS radii's) ratio: a fit
+        that shrank a probe onto a patch of the surface is no fit."""
+        ratio = _sizes(fits) / (surface.radius * unit_size[index])
+        result: NDArray[np.bool_] = (ratio >= 1 / _SCALE_SPAN) & (ratio <= _SCALE_SPAN)
+        return result
+
     flips = len(AXIS_FLIPS)
     for start in range(0, min(len(given), _BATCH * _BATCHES), _BATCH):
         group = given[start : start + _BATCH]
@@ -506,36 +565,21 @@ def partial_residuals(
         )
         best = np.arange(len(group)) * flips + coarse.reshape(len(group), flips).argmin(axis=1)
         fitted, residual = _probes_to_received(surface, posed[best], steps=6)
-        out[group] = residual
+        residual[~scaled(np.arange(start, start + len(group)), fitted)] = np.inf
+        out[group] = np.minimum(out[group], residual)
         k = int(np.argmin(residual))
         if residual[k] <= _POSE_FIT:
-            pose = (points[start + k], fitted[k])
-            break
-    if pose is not None:
-        scale, rotation, mu_p, mu_y = _umeyama_batch(
-            pose[0][None], pose[1][None], np.ones((1, len(pose[0])))
-        )
-        placed = scale[0] * (points - mu_p[0]) @ rotation[0].T + mu_y[0]
-        posed, _ = _received_to_probes(
-            surface,
-            placed,
-            None,
-            samples=_SHARE_SAMPLES,
-            point_steps=4,
-            plane_steps=0,
-        )
-        _, residual = _probes_to_received(surface, posed, steps=3)
-        # The best few again, to convergence: a pose shared from a re-proportioned variant
-        # leaves the asset itself a few steps short of its own fit.
-        top = np.argsort(residual, kind="stable")[:_REFINED]
-        posed, _ = _received_to_probes(
-            surface,
-            posed[top],
-            _point_normals(posed[top]),
-            samples=_SEARCH_SAMPLES,
-            point_steps=0,
-            plane_steps=_PLANE_STEPS,
-        )
-        residual[top] = np.minimum(residual[top], _probes_to_received(surface, posed, steps=6)[1])
-        out[given] = np.minimum(out[given], residual)
+            # Shared from the best fit so far while that improves: a closer variant's pose
+            # brings the asset itself nearer its own fit.
+            source, pose, fit = start + k, fitted[k], residual[k]
+            for _ in range(_ROUNDS):
+                shared, moved = _shared_fits(surface, points, points[source], pose)
+                shared[~scaled(np.arange(len(known)), moved)] = np.inf
+                out[given] = np.minimum(out[given], shared)
+                j = int(np.argmin(shared))
+                if not shared[j] < _BETTER * fit:
+                    break
+                source, pose, fit = j, moved[j], shared[j]
+            if np.min(out) <= _FIT:
+                break
     return out

@@ -97,6 +97,18 @@ def test_a_cropped_copy_fits_its_own_probe_first(name, assets_dir):
     assert first >= 9
 
 
+def test_no_other_shape_fits_a_crop(assets_dir):
+    """Crops of spot, kitten and plane_holes against the other two's probes: none fits (a fit
+    may not shrink a probe onto a patch of the surface)."""
+    meshes = {n: read_mesh(assets_dir / f"{n}.ply") for n in ("spot", "kitten", "plane_holes")}
+    probes = {n: make_probe(surface_samples(*m, ANCHORS)[0]) for n, m in meshes.items()}
+    for name, (v, f) in meshes.items():
+        others = [p for n, p in probes.items() if n != name]
+        for seed in range(3):
+            w, g = apply_attack("crop", *_reordered(v, f, seed), seed=seed, fraction=0.3)
+            assert np.all(partial_residuals(w, g, others) > PROBE_FIT), (name, seed)
+
+
 def test_partial_residuals_do_not_depend_on_the_pose(spot_mesh):
     """A crop moved by ten similarities: the same residuals, to 1e-6 of the radius."""
     v, f = apply_attack("crop", *spot_mesh, seed=4, fraction=0.3)
