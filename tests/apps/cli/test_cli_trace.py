@@ -7,6 +7,7 @@ import json
 import shutil
 import sqlite3
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -331,29 +332,41 @@ def _record_twins(registry: Registry, asset_id: int, descriptor: np.ndarray) -> 
     return [a.id for a in registry.assets() if a.name.startswith("twin-")]
 
 
-def test_probes_put_the_received_shape_before_its_near_duplicates(registered, tmp_path):
-    """Six near-duplicates of spot recorded with the received copy's own shape descriptor
-    (:func:`_record_twins`): the probes put spot first, and bob's decimated copy is read at the
-    first look.  Without probes (a registry recorded before them) the twins keep their
-    places."""
+def _among_twins(
+    registered, tmp_path: Path, moved: int, attack: str, **options: Any
+) -> tuple[Path, np.ndarray, np.ndarray, int]:
+    """Bob's copy of spot moved by a similarity (seed ``moved``) and ``attack``ed, and a copy of the
+    registry with six twins of spot (:func:`_record_twins`) that the descriptor ranks before
+    it: the registry's path, the received mesh and spot's asset id."""
     _, db, outs = registered
     work = tmp_path / "twins.db"
     shutil.copy(db, work)
-    v, f = read_mesh(outs[1])
-    v, f = apply_attack("similarity", v, f, seed=5)
-    v, f = apply_attack("simplify", v, f, seed=2, keep_fraction=0.5)
+    v, f = apply_attack("similarity", *read_mesh(outs[1]), seed=moved)
+    v, f = apply_attack(attack, v, f, **options)
     with Registry.open(work) as registry:
-        names = {a.id: a.name for a in registry.assets()}
-        (spot,) = [i for i, n in names.items() if n.startswith("spot")]
+        (spot,) = [a.id for a in registry.assets() if a.name.startswith("spot")]
         twins = _record_twins(registry, spot, shape_descriptor(v, f))
         assert set(nearest_assets(registry, v, f, count=6)) == set(twins)
+    return work, v, f, spot
+
+
+def _without_probes(work: Path) -> None:
+    """The registry as recorded before probes."""
+    with sqlite3.connect(work) as connection:
+        connection.execute('DELETE FROM "references" WHERE n = 0')
+
+
+def test_probes_put_the_received_shape_before_its_near_duplicates(registered, tmp_path):
+    """Six near-duplicates of spot that the descriptor ranks first (:func:`_among_twins`): the
+    probes put spot first, and bob's decimated copy is read at the first look.  Without probes
+    (a registry recorded before them) the twins keep their places."""
+    work, v, f, spot = _among_twins(registered, tmp_path, 5, "simplify", seed=2, keep_fraction=0.5)
+    with Registry.open(work, create=False) as registry:
         assert ranked_assets(registry, v, f)[0] == spot
         traced = Tracer(v, f, registry).trace(key=KEY)
         assert traced.detected and traced.report["recipient"] == "bob", traced.report
         assert [c["asset_id"] for c in traced.report["candidates"]] == [spot]
-    # A registry recorded before probes: the descriptor's order, unchanged.
-    with sqlite3.connect(work) as connection:
-        connection.execute('DELETE FROM "references" WHERE n = 0')
+    _without_probes(work)
     with Registry.open(work, create=False) as registry:
         assert ranked_assets(registry, v, f) == nearest_assets(registry, v, f, count=10)
         assert ranked_assets(registry, v, f).index(spot) >= 6
@@ -363,23 +376,13 @@ def test_a_cropped_copy_is_told_from_its_near_duplicates(registered, tmp_path):
     """A 30 % crop of bob's copy among six twins the descriptor ranks first, three candidates
     tried: no probe fits in the crop's frame, the partial fits put spot first, and the copy is
     read at the first look.  Without probes spot is not among the three."""
-    _, db, outs = registered
-    work = tmp_path / "twins.db"
-    shutil.copy(db, work)
-    v, f = read_mesh(outs[1])
-    v, f = apply_attack("similarity", v, f, seed=7)
-    v, f = apply_attack("crop", v, f, seed=3, fraction=0.3)
-    with Registry.open(work) as registry:
-        names = {a.id: a.name for a in registry.assets()}
-        (spot,) = [i for i, n in names.items() if n.startswith("spot")]
-        twins = _record_twins(registry, spot, shape_descriptor(v, f))
-        assert set(nearest_assets(registry, v, f, count=6)) == set(twins)
+    work, v, f, spot = _among_twins(registered, tmp_path, 7, "crop", seed=3, fraction=0.3)
+    with Registry.open(work, create=False) as registry:
         assert ranked_assets(registry, v, f, count=3)[0] == spot
         traced = Tracer(v, f, registry, candidates=3).trace(key=KEY)
         assert traced.detected and traced.report["recipient"] == "bob", traced.report
         assert [c["asset_id"] for c in traced.report["candidates"]] == [spot]
-    with sqlite3.connect(work) as connection:
-        connection.execute('DELETE FROM "references" WHERE n = 0')
+    _without_probes(work)
     with Registry.open(work, create=False) as registry:
         assert spot not in ranked_assets(registry, v, f, count=3)
 
@@ -394,8 +397,7 @@ def test_registry_upgrade_gives_old_assets_the_probes_embed_records(registered, 
         ids = [a.id for a in registry.assets()]
         recorded = registry.references_of(ids, n=PROBE)
     assert sorted(recorded) == sorted(ids)
-    with sqlite3.connect(work) as connection:
-        connection.execute('DELETE FROM "references" WHERE n = 0')
+    _without_probes(work)
     assert main(["registry", "upgrade", str(work)]) == 0
     assert capsys.readouterr().out == f"probes added to {len(ids)} of {len(ids)} assets\n"
     with Registry.open(work, create=False) as registry:
