@@ -167,14 +167,14 @@ def ranked_assets(
     probes = [stored.get(a) for a in near]
     try:
         residual = probe_residuals(vertices, faces, probes)
-        if not np.any(residual <= PROBE_FIT) and len(near) > count:
-            # The pose is searched for in the order of the frame residuals: even in a crop's
-            # moved frame, the right shape's probes tend to fit best.
-            order = np.argsort(residual, kind="stable")
-            partial = partial_residuals(vertices, faces, [probes[i] for i in order])
-            residual[order] = partial
     except ProbeError as exc:
         raise ValueError(f"registered asset {near[exc.index]}: damaged probe") from None
+    if not np.any(residual <= PROBE_FIT) and len(near) > count:
+        # The pose is searched for in the order of the frame residuals (every probe read and
+        # checked by now): even in a crop's moved frame, the right shape's probes tend to fit
+        # best.
+        order = np.argsort(residual, kind="stable")
+        residual[order] = partial_residuals(vertices, faces, [probes[i] for i in order])
     fits = [i for i in np.argsort(residual, kind="stable") if residual[i] <= PROBE_FIT]
     rest = [i for i in range(len(near)) if not residual[i] <= PROBE_FIT]
     return [near[i] for i in fits + rest][:count]
