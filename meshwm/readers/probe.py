@@ -231,10 +231,9 @@ _BATCH = 4
 _BATCHES = 20
 #: Probes refined again, to convergence, after the shared pose (the best fits).
 _REFINED = 8
-#: A probe whose partial residual is at most this gives a pose the others start from; the
-#: search ends once a probe fits within :data:`_FIT`.
+#: A probe whose partial residual is at most this gives a pose the others start from (the
+#: search ends once a probe fits within :data:`PROBE_FIT`).
 _POSE_FIT = 0.03
-_FIT = PROBE_FIT
 #: Poses shared in turn, each from the best fit of the one before while that is this much
 #: better.
 _ROUNDS = 2
@@ -598,7 +597,7 @@ def partial_residuals(
                 if not shared[j] < _BETTER * fit:
                     break
                 source, pose, fit = j, moved[j], shared[j]
-        return bool(np.min(out) <= _FIT)
+        return bool(np.min(out) <= PROBE_FIT)
 
     for start in range(0, min(len(given), _BATCH * _BATCHES), _BATCH):
         if search(start, AXIS_FLIPS):
