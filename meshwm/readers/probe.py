@@ -158,6 +158,24 @@ def _read_all(probes: Sequence[bytes | None]) -> list[_Probe | None]:
     return read
 
 
+class _Surface(NamedTuple):
+    """The received surface for partial fits: samples, their normals, frame, tree."""
+
+    x: NDArray[np.float64]
+    normals: NDArray[np.float64]
+    centre: NDArray[np.float64]
+    axes: NDArray[np.float64]
+    radius: float
+    tree: cKDTree
+
+
+def _received(vertices: NDArray, faces: NDArray) -> _Surface:
+    """The received mesh's :data:`_RECEIVED_POINTS` samples, their normals, frame and tree."""
+    v, f = checked_surface(vertices, faces)
+    x, normals = surface_samples(v, f, _RECEIVED_POINTS)
+    return _Surface(x, normals, *principal_frame(x), cKDTree(x))
+
+
 def probe_residuals(
     vertices: NDArray, faces: NDArray, probes: Sequence[bytes | None]
 ) -> NDArray[np.float64]:
@@ -189,10 +207,7 @@ def probe_residuals(
     out = np.full(len(read), np.inf)
     if all(r is None for r in read):
         return out
-    v, f = checked_surface(vertices, faces)
-    x, normals = surface_samples(v, f, _RECEIVED_POINTS)
-    centre, axes, radius = principal_frame(x)
-    tree = cKDTree(x)
+    x, normals, centre, axes, radius, tree = _received(vertices, faces)
     given = [(i, r) for i, r in enumerate(read) if r is not None]
     # Every probe under the four sign choices of its axes (probe axis k onto received axis k):
     # (probes, flips, points, 3).  The flip is chosen on every 8th point, then measured on all.
@@ -314,17 +329,6 @@ def _plane_steps(
     return c, _rotations(solution[:, :3]), solution[:, 3], solution[:, 4:]
 
 
-class _Surface(NamedTuple):
-    """The received surface for partial fits: samples, their normals, frame, tree."""
-
-    x: NDArray[np.float64]
-    normals: NDArray[np.float64]
-    centre: NDArray[np.float64]
-    axes: NDArray[np.float64]
-    radius: float
-    tree: cKDTree
-
-
 def _sizes(points: NDArray[np.float64]) -> NDArray[np.float64]:
     """RMS distance of each row's points (b, k, 3) to their centroid."""
     rel = points - points.mean(axis=1, keepdims=True)
@@ -332,16 +336,28 @@ def _sizes(points: NDArray[np.float64]) -> NDArray[np.float64]:
     return result
 
 
+_Apart = tuple[
+    NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray
+]
+
+
+def _apart(points: NDArray[np.float64]) -> _Apart:
+    """Rows of points (b, k, 3) each in its own unit frame (centred, over its RMS size), and
+    those laid out far apart so that one KD-tree serves every row: the centres (b, 3), sizes
+    (b,), the rows in their frames (b, k, 3), the shifts (b, 3) and the points laid out
+    (b * k, 3)."""
+    centre = points.mean(axis=1)
+    size = _sizes(points)
+    own = (points - centre[:, None]) / np.maximum(size, np.finfo(float).tiny)[:, None, None]
+    shift = np.zeros((len(points), 3))
+    shift[:, 0] = 20.0 * np.arange(len(points))
+    return centre, size, own, shift, (own + shift[:, None]).reshape(-1, 3)
+
+
 def _point_normals(points: NDArray[np.float64]) -> NDArray[np.float64]:
     """Unit normals (b, k, 3) of point sets (b, k, 3), each row on its own: the least principal
     axis of each point's 8 nearest points in its row."""
-    count = len(points)
-    centre = points.mean(axis=1)
-    size = np.sqrt(np.mean(np.sum((points - centre[:, None]) ** 2, axis=-1), axis=1))
-    own = (points - centre[:, None]) / np.maximum(size, np.finfo(float).tiny)[:, None, None]
-    shift = np.zeros((count, 3))
-    shift[:, 0] = 20.0 * np.arange(count)  # one tree for all rows, each far from the others
-    flat = (own + shift[:, None]).reshape(-1, 3)
+    flat = _apart(points)[4]
     local = flat[cKDTree(flat).query(flat, k=_PROBE_NEIGHBOURS)[1]]
     local -= local.mean(axis=1, keepdims=True)
     normal: NDArray[np.float64] = np.linalg.eigh(np.swapaxes(local, 1, 2) @ local)[1][:, :, 0]
@@ -365,14 +381,8 @@ def _received_to_probes(
     similarity (the probes posed on the received surface), and per row the RMS distance of the
     closest 80 % of the samples to its points, in units of the row's RMS size."""
     count = len(y)
-    centre = y.mean(axis=1)
-    size = np.sqrt(np.mean(np.sum((y - centre[:, None]) ** 2, axis=-1), axis=1))
-    own = (y - centre[:, None]) / size[:, None, None]  # each row in its own unit frame
-    shift = np.zeros((count, 3))
-    shift[:, 0] = 20.0 * np.arange(count)  # one tree for all rows, each far from the others
-    flat = (own + shift[:, None]).reshape(-1, 3)
+    centre, size, own, shift, flat = _apart(y)
     tree = cKDTree(flat)
-    normal = np.zeros_like(flat) if normals is None else normals.reshape(-1, 3)
     x = surface.x[:: max(1, len(surface.x) // samples)]
     # z = s R x + t: received coordinates into each row's unit frame; starts at the placement.
     rotation = np.broadcast_to(np.eye(3), (count, 3, 3)).copy()
@@ -393,14 +403,17 @@ def _received_to_probes(
         )
         scale = np.clip(scale, low, high)
         translation = mu_p - scale[:, None] * (rotation @ mu_x[..., None])[..., 0]
-    for _ in range(plane_steps if normals is not None else 0):
-        z, distance, index = match()
-        c, r, sigma, tau = _plane_steps(
-            z, flat[index] - shift[:, None], normal[index], _trimmed(distance, _SEARCH_KEEP)
-        )
-        scale = np.clip((1 + sigma) * scale, low, high)
-        translation = (1 + sigma)[:, None] * (r @ (translation - c)[..., None])[..., 0] + c + tau
-        rotation = r @ rotation
+    if normals is not None:
+        normal = normals.reshape(-1, 3)
+        for _ in range(plane_steps):
+            z, distance, index = match()
+            c, r, sigma, tau = _plane_steps(
+                z, flat[index] - shift[:, None], normal[index], _trimmed(distance, _SEARCH_KEEP)
+            )
+            scale = np.clip((1 + sigma) * scale, low, high)
+            turned = (r @ (translation - c)[..., None])[..., 0]
+            translation = (1 + sigma)[:, None] * turned + c + tau
+            rotation = r @ rotation
     _, distance, _ = match()
     kept = np.sort(distance, axis=1)[:, : int(_SEARCH_KEEP * distance.shape[1])]
     posed = ((own - translation[:, None]) @ rotation) / scale[:, None, None]
@@ -542,9 +555,7 @@ def partial_residuals(
     if not known:
         return out
     given = [i for i, _ in known]
-    v, f = checked_surface(vertices, faces)
-    x, normals = surface_samples(v, f, _RECEIVED_POINTS)
-    surface = _Surface(x, normals, *principal_frame(x), cKDTree(x))
+    surface = _received(vertices, faces)
     points = np.stack([r[3] for _, r in known])
     # Each probe's points in its own frame's units: where its search starts.
     unit = np.stack([(p - c) / r for _, (c, _, r, p) in known])
