@@ -19,11 +19,11 @@ from meshwm._validate import DEFAULT_MAX_FACES
 
 __all__ = [
     "MarkedMesh",
-    "add_probes",
     "mark_payload",
     "mesh_sha256",
     "record_copies",
     "trace_mesh",
+    "upgrade_assets",
 ]
 
 
@@ -98,6 +98,7 @@ def record_copies(
     marked one, sealed under ``key``.
     """
     from meshwm.apps.registry import AssetEntry, CopyEntry
+    from meshwm.readers.descriptor import CROP_REFERENCE, make_crops
     from meshwm.readers.informed import (
         REFERENCE_SIZE,
         copy_signature,
@@ -124,7 +125,11 @@ def record_copies(
             vertices=len(mesh.vertices),
             faces=len(mesh.faces),
             descriptor=shape_descriptor(mesh.vertices, mesh.faces),
-            references={REFERENCE_SIZE: reference.to_bytes(), PROBE: make_probe(reference.anchors)},
+            references={
+                REFERENCE_SIZE: reference.to_bytes(),
+                PROBE: make_probe(reference.anchors),
+                CROP_REFERENCE: make_crops(reference.anchors, reference.anchor_normals),
+            },
         )
         copy = CopyEntry(
             payload=mesh.payload,
@@ -139,9 +144,10 @@ def record_copies(
     return out
 
 
-def add_probes(registry: Any) -> tuple[list[int], list[int]]:
-    """Give each asset recorded without a probe (by a meshwm before probes) the probe embed
-    records now (:func:`meshwm.readers.probe.make_probe` of its reference's anchors).
+def upgrade_assets(registry: Any) -> tuple[list[int], list[int]]:
+    """Give each asset recorded by an earlier meshwm what embed records now and it lacks: the
+    probe (:func:`meshwm.readers.probe.make_probe`) and the crop descriptors
+    (:func:`meshwm.readers.descriptor.make_crops`), both made from its reference's anchors.
 
     Parameters
     ----------
@@ -151,7 +157,7 @@ def add_probes(registry: Any) -> tuple[list[int], list[int]]:
     Returns
     -------
     added, skipped : list of int
-        The assets given a probe; those without a reference to make one from.
+        The assets given either; those without a reference to make them from.
 
     Raises
     ------
@@ -159,25 +165,29 @@ def add_probes(registry: Any) -> tuple[list[int], list[int]]:
         An asset's reference is damaged (nothing is added for it or after it).
     """
     from meshwm.errors import RegistryError
+    from meshwm.readers.descriptor import CROP_REFERENCE, make_crops
     from meshwm.readers.informed import REFERENCE_SIZE, Reference
     from meshwm.readers.probe import PROBE, make_probe
 
     added, skipped = [], []
     for asset in registry.assets():
         sizes = registry.reference_sizes(asset.id)
-        if PROBE in sizes:
+        if PROBE in sizes and CROP_REFERENCE in sizes:
             continue
         if REFERENCE_SIZE not in sizes:
             skipped.append(asset.id)
             continue
         try:
             reference = Reference.from_bytes(registry.references(asset.id)[REFERENCE_SIZE])
-            probe = make_probe(reference.anchors)
+            blobs = {
+                PROBE: make_probe(reference.anchors),
+                CROP_REFERENCE: make_crops(reference.anchors, reference.anchor_normals),
+            }
         except ValueError as exc:
             raise RegistryError(
                 f"{registry.name}: asset {asset.id} ({asset.name}): damaged reference ({exc})"
             ) from None
-        if registry.add_references(asset.id, {PROBE: probe}):
+        if registry.add_references(asset.id, {n: blobs[n] for n in blobs if n not in sizes}):
             added.append(asset.id)
     return added, skipped
 

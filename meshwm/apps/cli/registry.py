@@ -66,11 +66,12 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
 
     upgrade = actions.add_parser(
         "upgrade",
-        help="add probes to assets recorded by an older meshwm",
+        help="add probes and crop descriptors to assets recorded by an older meshwm",
         description=(
-            "Give every asset recorded without a probe (by a meshwm before probes) the probe "
-            "embed records now, made from its stored reference: trace then orders it among "
-            "near-duplicate assets as it does new ones. Assets that have one are left as they are."
+            "Give every asset recorded without a probe or crop descriptors (by an older meshwm) "
+            "what embed records now, made from its stored reference: trace then orders it "
+            "among near-duplicate assets, and finds crops of it, as it does new ones. What an "
+            "asset has is left as it is."
         ),
     )
     upgrade.add_argument("database", **database)
@@ -159,6 +160,10 @@ def _list(registry: Registry, *, as_json: bool) -> None:
             print(_copy_line(copy))
 
 
+#: References recorded under a grid size that is not one.
+_REFERENCE_NAMES = {0: "probe", 1: "crop descriptors"}
+
+
 def _show(registry: Registry, asset_id: int, *, as_json: bool) -> None:
     asset = registry.asset(asset_id)
     sizes = registry.reference_sizes(asset_id)
@@ -177,7 +182,7 @@ def _show(registry: Registry, asset_id: int, *, as_json: bool) -> None:
     print(f"  size          {asset.vertices} vertices, {asset.faces} faces")
     print(f"  recorded      {asset.created}")
     references = (
-        ", ".join(f"{f'N={n}' if n else 'probe'}: {size} bytes" for n, size in sizes.items())
+        ", ".join(f"{_REFERENCE_NAMES.get(n, f'N={n}')}: {size} bytes" for n, size in sizes.items())
         or "none"
     )
     print(f"  references    {references}")
@@ -189,11 +194,11 @@ def _show(registry: Registry, asset_id: int, *, as_json: bool) -> None:
 
 
 def _upgrade(registry: Registry) -> None:
-    from meshwm.apps.tracing import add_probes
+    from meshwm.apps.tracing import upgrade_assets
 
-    added, skipped = add_probes(registry)
+    added, skipped = upgrade_assets(registry)
     total = len(registry.assets())
-    print(f"probes added to {len(added)} of {total} assets", end="")
+    print(f"probes or crop descriptors added to {len(added)} of {total} assets", end="")
     print(f"; {len(skipped)} without a reference to make one from" if skipped else "")
 
 

@@ -16,6 +16,7 @@ from meshwm.apps.cli import main
 from meshwm.apps.registry import AssetEntry, CopyEntry, Registry
 from meshwm.attacks import apply_attack
 from meshwm.mesh.io import read_mesh, write_mesh
+from meshwm.readers.descriptor import CROP_REFERENCE
 from meshwm.readers.informed import REFERENCE_SIZE, Reference, seal_signature
 from meshwm.readers.probe import PROBE, make_probe
 from meshwm.readers.registration import shape_descriptor
@@ -259,28 +260,51 @@ def _looks(report: dict, names: dict[int, str]) -> list[tuple[str, int]]:
 @pytest.mark.parametrize(
     ("crop_seed", "expected"),
     [
-        # kitten's descriptor ranks first: it gets its cheap look only, then spot's reads.
+        # kitten's descriptor ranks first (with spot's crops, spot's would): it gets its cheap
+        # look only, then spot's reads.
         (1, [("kitten", 4), ("spot", 4)]),
         # The crop turns spot's principal axes: every candidate's cheap look first, then the
         # spread over SO(3) for spot (kitten's frames did not fit either, but spot reads first).
         (0, [("spot", 4), ("kitten", 4), ("spot", 76)]),
     ],
 )
-def test_trace_looks_at_every_candidate_cheaply_before_any_spread(registered, crop_seed, expected):
+def test_trace_looks_at_every_candidate_cheaply_before_any_spread(
+    registered, tmp_path, crop_seed, expected
+):
     """A 30 % crop of bob's copy: no candidate is posed over the 72 spread rotations (about ten
     times the cost of its principal frames) before every candidate has had its cheap look, so
     a wrong asset ranked first costs little (a crop traced against 1,000 assets: see
-    docs/bench/trace.md)."""
+    docs/bench/trace.md).  The registry without its crop descriptors (as an older meshwm
+    recorded it), so that the descriptor ranks the wrong asset first on one crop."""
     _, db, outs = registered
+    work = tmp_path / "old.db"
+    shutil.copy(db, work)
+    with sqlite3.connect(work) as connection:
+        connection.execute('DELETE FROM "references" WHERE n = 1')
     v, f = read_mesh(outs[1])
     v, f = apply_attack("similarity", v, f, seed=7)
     v, f = apply_attack("crop", v, f, seed=crop_seed, fraction=0.3)
-    with Registry.open(db, create=False) as registry:
+    with Registry.open(work, create=False) as registry:
         names = {a.id: a.name.removesuffix(".ply") for a in registry.assets()}
         traced = Tracer(v, f, registry).trace(key=KEY)
     assert traced.detected and traced.report["recipient"] == "bob", traced.report
     assert _looks(traced.report, names) == expected
     assert traced.report["p_value"] * traced.report["hypotheses"] < 1e-6
+
+
+def test_crop_descriptors_rank_a_crop_by_its_own_asset(registered, tmp_path):
+    """The crop the test above traces with kitten first: the crop descriptors embed records
+    rank spot first, and the trace reads it at the first look."""
+    _, db, outs = registered
+    v, f = read_mesh(outs[1])
+    v, f = apply_attack("similarity", v, f, seed=7)
+    v, f = apply_attack("crop", v, f, seed=1, fraction=0.3)
+    with Registry.open(db, create=False) as registry:
+        names = {a.id: a.name.removesuffix(".ply") for a in registry.assets()}
+        assert [names[a] for a in nearest_assets(registry, v, f)] == ["spot", "kitten"]
+        traced = Tracer(v, f, registry).trace(key=KEY)
+    assert traced.detected and traced.report["recipient"] == "bob", traced.report
+    assert _looks(traced.report, names) == [("spot", 4)]
 
 
 def test_nearest_assets_ranks_by_shape_within_a_choice(registered, assets_dir):
@@ -387,29 +411,54 @@ def test_a_cropped_copy_is_told_from_its_near_duplicates(registered, tmp_path):
         assert spot not in ranked_assets(registry, v, f, count=3)
 
 
-def test_registry_upgrade_gives_old_assets_the_probes_embed_records(registered, tmp_path, capsys):
-    """A registry recorded before probes (its probes deleted): ``registry upgrade`` adds the
-    same bytes embed recorded, once; a damaged reference is one line and exit code 2."""
+def test_registry_upgrade_gives_old_assets_what_embed_records(registered, tmp_path, capsys):
+    """A registry recorded before probes and crop descriptors (both deleted): ``registry
+    upgrade`` adds the same bytes embed recorded, once, and only what is missing; a damaged
+    reference is one line and exit code 2."""
     _, db, _ = registered
     work = tmp_path / "old.db"
     shutil.copy(db, work)
     with Registry.open(work, create=False) as registry:
         ids = [a.id for a in registry.assets()]
-        recorded = registry.references_of(ids, n=PROBE)
-    assert sorted(recorded) == sorted(ids)
+        recorded = {n: registry.references_of(ids, n=n) for n in (PROBE, CROP_REFERENCE)}
+    assert all(sorted(r) == sorted(ids) for r in recorded.values())
     _without_probes(work)
+    with sqlite3.connect(work) as connection:
+        connection.execute('DELETE FROM "references" WHERE n = ? AND asset_id = ?', (1, ids[0]))
     assert main(["registry", "upgrade", str(work)]) == 0
-    assert capsys.readouterr().out == f"probes added to {len(ids)} of {len(ids)} assets\n"
+    out = capsys.readouterr().out
+    assert out == f"probes or crop descriptors added to {len(ids)} of {len(ids)} assets\n"
     with Registry.open(work, create=False) as registry:
-        assert registry.references_of(ids, n=PROBE) == recorded
+        for n in (PROBE, CROP_REFERENCE):
+            assert registry.references_of(ids, n=n) == recorded[n]
     assert main(["registry", "upgrade", str(work)]) == 0
-    assert capsys.readouterr().out == f"probes added to 0 of {len(ids)} assets\n"
+    assert (
+        capsys.readouterr().out == f"probes or crop descriptors added to 0 of {len(ids)} assets\n"
+    )
+    assert main(["registry", "show", str(work), str(ids[0])]) == 0
+    assert "probe: 6256 bytes, crop descriptors: 6728 bytes, N=" in capsys.readouterr().out
     with sqlite3.connect(work) as connection:
         connection.execute('DELETE FROM "references" WHERE n = 0')
         connection.execute('UPDATE "references" SET data = ? WHERE asset_id = ?', (b"junk", ids[0]))
     assert main(["registry", "upgrade", str(work)]) == 2
     err = _one_line_error(capsys)
     assert f"asset {ids[0]}" in err and "damaged reference" in err
+
+
+def test_damaged_crop_descriptors_are_one_line_naming_the_asset(registered, tmp_path, capsys):
+    _, db, outs = registered
+    work = tmp_path / "damaged.db"
+    shutil.copy(db, work)
+    with Registry.open(work, create=False) as registry:
+        victim = registry.assets()[-1].id
+    with sqlite3.connect(work) as connection:
+        connection.execute(
+            'UPDATE "references" SET data = ? WHERE asset_id = ? AND n = 1', (b"junk", victim)
+        )
+    args = ["trace", str(outs[0]), "--key", KEY, "--registry", str(work)]
+    assert main(args) == 2
+    err = _one_line_error(capsys)
+    assert f"registered asset {victim}: damaged crop descriptors" in err
 
 
 def test_a_damaged_probe_is_one_line_naming_the_asset(registered, tmp_path, capsys):
