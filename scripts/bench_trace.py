@@ -16,13 +16,16 @@ copies' tests), (b) traced against the full registry; median of ``--repeat`` run
         [--received simplify loop isotropic crop] [--out FILE] [--reuse DIR]
 
 ``--reuse DIR``: the registry and marked copies ``scripts/null_informed.py`` or an earlier run
-built (``DIR/registry.db``, ``DIR/<mesh>.npy``), instead of embedding again.
+built (``DIR/registry.db``, ``DIR/<mesh>.npy``), instead of embedding again; the full
+registry is kept as ``DIR/big-<assets>.db`` and, when there, copied instead of filled again
+(delete it after a change to what embed records).
 """
 
 from __future__ import annotations
 
 import argparse
 import hashlib
+import multiprocessing
 import os
 import shutil
 import sys
@@ -41,6 +44,7 @@ from check_keep import DEV, MESHES  # type: ignore[import-not-found]
 from meshwm.apps.registry import AssetEntry, CopyEntry, Registry
 from meshwm.attacks import apply_attack
 from meshwm.mesh.io import read_mesh
+from meshwm.readers.descriptor import CROP_REFERENCE, make_crops
 from meshwm.readers.informed import REFERENCE_SIZE, Reference, seal_signature
 from meshwm.readers.probe import PROBE, make_probe
 from meshwm.readers.registration import shape_descriptor
@@ -82,8 +86,42 @@ def _deform_normals(
     return out / np.maximum(np.linalg.norm(out, axis=1, keepdims=True), 1e-300)
 
 
+def _decoy(task: tuple[int, np.ndarray, np.ndarray, Reference]) -> tuple[AssetEntry, CopyEntry]:
+    """Decoy ``k``: the mesh and reference deformed, as an asset with one random copy."""
+    k, v, f, ref = task
+    centre, size = v.mean(axis=0), float(np.ptp(v, axis=0).max())
+    moved = ref._replace(
+        points=_deform(ref.points, k, centre, size),
+        anchors=_deform(ref.anchors, k, centre, size),
+        anchor_normals=_deform_normals(ref.anchors, ref.anchor_normals, k, centre, size),
+    )
+    sig = np.sin(np.arange(len(ref.cells)) * (k + 1) * 0.37)
+    asset = AssetEntry(
+        name=f"decoy-{k}",
+        input_sha256=hashlib.sha256(f"decoy/{k}".encode()).hexdigest(),
+        vertices=len(v),
+        faces=len(f),
+        descriptor=shape_descriptor(_deform(v, k, centre, size), f),
+        references={
+            REFERENCE_SIZE: moved.to_bytes(),
+            PROBE: make_probe(moved.anchors),
+            CROP_REFERENCE: make_crops(moved.anchors, moved.anchor_normals),
+        },
+    )
+    copy = CopyEntry(
+        payload=f"{k:016x}",
+        recipient=None,
+        output_name=f"decoy-{k}.ply",
+        output_sha256="0" * 64,
+        n=128,
+        signature=seal_signature(sig, moved, key=KEY),
+    )
+    return asset, copy
+
+
 def decoys(registry: Registry, count: int) -> None:
-    """``count`` deformed development meshes as assets, one random copy each."""
+    """``count`` deformed development meshes as assets, one random copy each (made in two
+    processes, recorded in order)."""
     meshes = []
     for m in DEV:  # a coarse copy is enough for a decoy's descriptor, and quicker
         v, f = read_mesh(MESHES / f"{m}.ply")
@@ -92,35 +130,10 @@ def decoys(registry: Registry, count: int) -> None:
         meshes.append((v, f))
     refs = {a.name: a.id for a in registry.assets()}
     bases = [Reference.from_bytes(registry.references(refs[m])[REFERENCE_SIZE]) for m in DEV]
-    for k in range(count):
-        i = k % len(DEV)
-        v, f = meshes[i]
-        centre, size = v.mean(axis=0), float(np.ptp(v, axis=0).max())
-        ref = bases[i]
-        moved = ref._replace(
-            points=_deform(ref.points, k, centre, size),
-            anchors=_deform(ref.anchors, k, centre, size),
-            anchor_normals=_deform_normals(ref.anchors, ref.anchor_normals, k, centre, size),
-        )
-        sig = np.sin(np.arange(len(ref.cells)) * (k + 1) * 0.37)
-        registry.record_embed(
-            AssetEntry(
-                name=f"decoy-{k}",
-                input_sha256=hashlib.sha256(f"decoy/{k}".encode()).hexdigest(),
-                vertices=len(v),
-                faces=len(f),
-                descriptor=shape_descriptor(_deform(v, k, centre, size), f),
-                references={REFERENCE_SIZE: moved.to_bytes(), PROBE: make_probe(moved.anchors)},
-            ),
-            CopyEntry(
-                payload=f"{k:016x}",
-                recipient=None,
-                output_name=f"decoy-{k}.ply",
-                output_sha256="0" * 64,
-                n=128,
-                signature=seal_signature(sig, moved, key=KEY),
-            ),
-        )
+    tasks = [(k, *meshes[k % len(DEV)], bases[k % len(DEV)]) for k in range(count)]
+    with multiprocessing.Pool(2) as pool:
+        for asset, copy in pool.imap(_decoy, tasks, chunksize=8):
+            registry.record_embed(asset, copy)
 
 
 def copy_asset(source: Registry, target: Registry, name: str) -> None:
@@ -129,9 +142,11 @@ def copy_asset(source: Registry, target: Registry, name: str) -> None:
     ids, table = source.descriptors()
     descriptor = table[int(np.flatnonzero(ids == asset.id)[0])]
     references = dict(source.references(asset.id))
-    if PROBE not in references:  # recorded before probes: what embed records now
-        anchors = Reference.from_bytes(references[REFERENCE_SIZE]).anchors
-        references[PROBE] = make_probe(anchors)
+    if PROBE not in references or CROP_REFERENCE not in references:
+        # recorded by an earlier meshwm: what embed records now
+        ref = Reference.from_bytes(references[REFERENCE_SIZE])
+        references.setdefault(PROBE, make_probe(ref.anchors))
+        references.setdefault(CROP_REFERENCE, make_crops(ref.anchors, ref.anchor_normals))
     entry = AssetEntry(
         name=asset.name,
         input_sha256=asset.input_sha256,
@@ -182,10 +197,18 @@ def main() -> int:
             for m in DEV:
                 embed_mesh((m, big, scratch))
         t0 = time.perf_counter()
-        with Registry.open(big) as registry:
-            decoys(registry, args.assets - len(DEV))
+        kept = args.reuse / f"big-{args.assets}.db" if args.reuse else None
+        if kept is not None and kept.exists():
+            shutil.copy(kept, big)
+            fill_note = f"copied from {kept.name}, filled by an earlier run"
+        else:
+            with Registry.open(big) as registry:
+                decoys(registry, args.assets - len(DEV))
+            fill_note = f"filled in {time.perf_counter() - t0:.0f} s"
+            if kept is not None:
+                shutil.copy(big, kept)
+        with Registry.open(big, create=False) as registry:
             held = len(registry.assets())
-        fill = time.perf_counter() - t0
         for m in args.meshes:
             one = os.path.join(scratch, f"one-{m}.db")
             with Registry.open(big, create=False) as source, Registry.open(one) as target:
@@ -220,7 +243,7 @@ def main() -> int:
         steps = ", then ".join(f"{n} {o}" for n, o in RECEIVED[received])
         lines.append(f"received {received}: {steps}")
     lines.append(f"median of {args.repeat} runs each")
-    lines.append(f"registry: {held} assets, filled in {fill:.0f} s")
+    lines.append(f"registry: {held} assets, {fill_note}")
     text = "\n".join(lines)
     print(text)
     if args.out:
