@@ -179,15 +179,16 @@ def upgrade_assets(registry: Any) -> tuple[list[int], list[int]]:
             continue
         try:
             reference = Reference.from_bytes(registry.references(asset.id)[REFERENCE_SIZE])
-            blobs = {
-                PROBE: make_probe(reference.anchors),
-                CROP_REFERENCE: make_crops(reference.anchors, reference.anchor_normals),
-            }
+            blobs = {}
+            if PROBE not in sizes:
+                blobs[PROBE] = make_probe(reference.anchors)
+            if CROP_REFERENCE not in sizes:
+                blobs[CROP_REFERENCE] = make_crops(reference.anchors, reference.anchor_normals)
         except ValueError as exc:
             raise RegistryError(
                 f"{registry.name}: asset {asset.id} ({asset.name}): damaged reference ({exc})"
             ) from None
-        if registry.add_references(asset.id, {n: blobs[n] for n in blobs if n not in sizes}):
+        if registry.add_references(asset.id, blobs):
             added.append(asset.id)
     return added, skipped
 

@@ -178,10 +178,7 @@ def principal_frame(
 def _block(name: str, values: NDArray[np.float64]) -> NDArray[np.float64]:
     """The weighted square roots of a normalised histogram on [0, high] (the last bin takes the
     tail), so that the Euclidean distance between two blocks is a weighted Hellinger distance."""
-    bins, high, weight = _BLOCKS[name]
-    index = np.minimum(values * (bins / high), bins - 1).astype(np.intp)  # values are >= 0
-    counts = np.bincount(index, minlength=bins).astype(np.float64)
-    return weight * np.sqrt(counts / max(counts.sum(), 1.0))
+    return _counted(name, _bins(name, values), None)  # values are >= 0
 
 
 def _bins(name: str, values: NDArray[np.float64]) -> NDArray[np.intp]:
@@ -194,10 +191,10 @@ def _bins(name: str, values: NDArray[np.float64]) -> NDArray[np.intp]:
 def _counted(
     name: str,
     index: NDArray[np.intp] | tuple[NDArray[np.intp], ...],
-    weights: NDArray[np.float64],
+    weights: NDArray[np.float64] | None,
 ) -> NDArray[np.float64]:
     """:func:`_block` of the values whose bins are ``index`` (or each of a tuple of bin
-    arrays), counting value ``i`` ``weights[i]`` times."""
+    arrays), counting value ``i`` ``weights[i]`` times (once each without weights)."""
     bins, _, weight = _BLOCKS[name]
     counts = sum(
         np.bincount(i, weights, minlength=bins)
@@ -374,7 +371,8 @@ def crop_descriptors(points: NDArray, normals: NDArray) -> NDArray[np.float64]:
     rows = []
     for c in range(CROPS):
         kept = heights[:, c] <= np.quantile(heights[:, c], 1.0 - CROP_FRACTION)
-        pair = (kept[paired][first] & kept[paired][second]).astype(np.float64)
+        kept_paired = kept[paired]
+        pair = (kept_paired[first] & kept_paired[second]).astype(np.float64)
         mean = float(distance @ pair) / max(float(pair.sum()), 1.0)
         near = pair * (distance < _NEAR * mean)
         kept_points = pts[kept]
