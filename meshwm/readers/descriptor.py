@@ -216,6 +216,23 @@ def _flatness(points: NDArray[np.float64]) -> NDArray[np.float64]:
     return result
 
 
+def _pairs(
+    p: NDArray[np.float64], n: NDArray[np.float64]
+) -> tuple[tuple[NDArray[np.intp], NDArray[np.intp]], NDArray[np.float64], NDArray[np.float64]]:
+    """The pairs ``a < b`` of points ``p`` (row by row, as :func:`pdist` orders them), their
+    distances, and the |cosine| between each end's normal ``n`` and the pair's direction
+    (2, pairs)."""
+    first, second = np.triu_indices(len(p), k=1)
+    distance = pdist(p)
+    safe = np.maximum(distance, np.finfo(float).tiny)
+    reach = n @ p.T  # reach[a, b] = n_a · p_b, so n_a · (p_b - p_a) = reach[a, b] - reach[a, a]
+    own = np.diag(reach)
+    incidence = np.abs(
+        np.stack([reach[first, second] - own[first], own[second] - reach[second, first]]) / safe
+    )
+    return (first, second), distance, incidence
+
+
 def shape_descriptor(vertices: NDArray, faces: NDArray) -> NDArray[np.float64]:
     """A similarity-invariant shape signature of a triangle mesh's surface.
 
@@ -278,20 +295,13 @@ def shape_descriptor(vertices: NDArray, faces: NDArray) -> NDArray[np.float64]:
     radius = np.linalg.norm(points - points.mean(axis=0), axis=1)
 
     p, n = points[::_PAIR_STRIDE], normals[::_PAIR_STRIDE]
-    upper = np.triu(np.ones((len(p), len(p)), dtype=bool), k=1)  # pairs a < b, row by row
-    distance = pdist(p)  # the same pairs in the same order
-    safe = np.maximum(distance, np.finfo(float).tiny)
-    reach = n @ p.T  # reach[a, b] = n_a · p_b, so n_a · (p_b - p_a) = reach[a, b] - reach[a, a]
-    own = np.diag(reach)
-    incidence = np.abs(
-        np.stack([(reach - own[:, None])[upper], (own[None, :] - reach.T)[upper]]) / safe
-    )
+    (first, second), distance, incidence = _pairs(p, n)
     near = distance < _NEAR * distance.mean()
     return np.concatenate(
         [
             _block("d2", distance / distance.mean()),
             _block("radial", radius / np.sqrt(np.mean(radius**2))),
-            _block("normals", np.abs((n @ n.T)[upper])),
+            _block("normals", np.abs((n @ n.T)[first, second])),
             _block("incidence", incidence.ravel()),
             _block("near_incidence", incidence[:, near].ravel()),
             _block("flatness", _flatness(points)),
@@ -357,16 +367,9 @@ def crop_descriptors(points: NDArray, normals: NDArray) -> NDArray[np.float64]:
     heights = (pts - centre) @ axes @ _CROP_DIRECTIONS.T  # (dense, CROPS)
     paired = np.linspace(0, dense - 1, _CROP_PAIR_POINTS).round().astype(np.intp)
     p, n = pts[paired], nrm[paired]
-    first, second = np.triu_indices(len(p), k=1)
-    distance = pdist(p)  # the same pairs in the same order
-    safe = np.maximum(distance, np.finfo(float).tiny)
-    reach = n @ p.T
-    own = np.diag(reach)
+    (first, second), distance, both = _pairs(p, n)
     # Every pair's bins once; a crop counts the pairs it keeps (weights 1) among them.
-    incidence = (
-        _bins("incidence", np.abs(reach[first, second] - own[first]) / safe),
-        _bins("incidence", np.abs(own[second] - reach[second, first]) / safe),
-    )
+    incidence = (_bins("incidence", both[0]), _bins("incidence", both[1]))
     cosine = _bins("normals", np.abs(np.einsum("ij,ij->i", n[first], n[second])))
     rows = []
     for c in range(CROPS):
