@@ -199,6 +199,19 @@ def ranked_assets(
     ValueError
         A damaged probe in the registry (the message names its asset).
     """
+    return _ranked(registry, vertices, faces, count=count, preselected=preselected)[0]
+
+
+def _ranked(
+    registry: RegistryView,
+    vertices: NDArray,
+    faces: NDArray,
+    *,
+    count: int,
+    preselected: int,
+) -> tuple[list[int], set[int]]:
+    """:func:`ranked_assets`, and those of them whose probe fitted a crop (no probe fitted in
+    the received frame, and theirs fitted the surface)."""
     near = nearest_assets(registry, vertices, faces, count=max(count, preselected))
     stored = registry.references_of(near, n=PROBE)
     probes = [stored.get(a) for a in near]
@@ -206,6 +219,7 @@ def ranked_assets(
         residual = probe_residuals(vertices, faces, probes)
     except ProbeError as exc:
         raise ValueError(f"registered asset {near[exc.index]}: damaged probe") from None
+    cropped = False
     if not np.any(residual <= PROBE_FIT) and len(near) > count:
         # Searched in descriptor order (every probe read and checked by now): with the
         # assets' crops, the nearest descriptors put a crop's asset near the front (among
@@ -214,9 +228,11 @@ def ranked_assets(
         residual = np.full(len(near), np.inf)
         fitted = min(len(near), PARTIAL_FITTED)
         residual[:fitted] = partial_residuals(vertices, faces, probes[:fitted])
+        cropped = True
     fits = [i for i in np.argsort(residual, kind="stable") if residual[i] <= PROBE_FIT]
     rest = [i for i in range(len(near)) if not residual[i] <= PROBE_FIT]
-    return [near[i] for i in fits + rest][:count]
+    order = [near[i] for i in fits + rest][:count]
+    return order, {near[i] for i in fits} & set(order) if cropped else set()
 
 
 class Traced(NamedTuple):
@@ -289,7 +305,9 @@ class Tracer:
             raise ValueError(f"candidates must be a positive integer, got {candidates!r}")
         self._v, self._f = check_mesh(vertices, faces, max_faces=max_faces)
         self._registry = registry
-        self._order = ranked_assets(registry, self._v, self._f, count=candidates)
+        self._order, self._partial = _ranked(
+            registry, self._v, self._f, count=candidates, preselected=PRESELECTED
+        )
         self._copies = {a: list(registry.copies(a)) for a in self._order}
         self._posed: dict[tuple[int, bool], _Candidate] = {}
         self._searches: dict[int, tuple[Reference, NDArray[np.float64] | None, PoseSearch]] = {}
@@ -357,14 +375,22 @@ class Tracer:
         return self._surface
 
     def _looks(self) -> Iterator[tuple[int, bool]]:
-        """The candidates in descriptor order through their principal frames, then, for those
-        whose frames did not fit, again with the spread (a crop turns the principal axes; the
-        spread costs about ten frames' looks, so a wrong candidate ranked first must not pay it
-        before the right one has had its cheap look)."""
+        """The candidates in their order through their principal frames, then, for those whose
+        frames did not fit, again with the spread (a wrong candidate ranked first must not pay
+        the spread before the right one has had its cheap look).  A candidate whose probe
+        fitted a crop (:func:`meshwm.readers.probe.partial_residuals`; it is then ranked before
+        those that did not) has its spread right after its own frames look: it is the likely
+        asset, and the frames of the candidates after it seldom fit a crop that moved the
+        frame (each such look costs a search and a polish: about 1 s per candidate on
+        human_neutral's crops, ten of them before the first one's spread found its pose)."""
+        spread = set()
         for asset_id in self._order:
             yield asset_id, False
+            if asset_id in self._partial and not self._candidate(asset_id, spread=False).settled:
+                spread.add(asset_id)
+                yield asset_id, True
         for asset_id in self._order:
-            if not self._candidate(asset_id, spread=False).settled:
+            if asset_id not in spread and not self._candidate(asset_id, spread=False).settled:
                 yield asset_id, True
 
     def trace(self, *, key: str | bytes, fpr: float = DEFAULT_FPR) -> Traced:

@@ -478,3 +478,17 @@ def test_a_damaged_probe_is_one_line_naming_the_asset(registered, tmp_path, caps
     assert code == 2
     err = _one_line_error(capsys)
     assert f"registered asset {kitten}: damaged probe" in err
+
+
+def test_a_crop_fitted_by_its_asset_has_its_spread_before_the_others_frames(registered, tmp_path):
+    """The crop that turns spot's principal axes (the looks test above, crop 0), among six
+    twins, three candidates tried: spot's probe fits the crop, so its spread over SO(3)
+    follows its own frames look at once, before any twin's frames (each a second on a large
+    mesh, that seldom fit such a crop)."""
+    work, v, f, spot = _among_twins(registered, tmp_path, 7, "crop", seed=0, fraction=0.3)
+    with Registry.open(work, create=False) as registry:
+        names = {a.id: a.name.removesuffix(".ply") for a in registry.assets()}
+        assert ranked_assets(registry, v, f, count=3)[0] == spot
+        traced = Tracer(v, f, registry, candidates=3).trace(key=KEY)
+    assert traced.detected and traced.report["recipient"] == "bob", traced.report
+    assert _looks(traced.report, names) == [("spot", 4), ("spot", 76)]
