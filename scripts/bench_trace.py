@@ -13,7 +13,7 @@ copies' tests), (b) traced against the full registry; median of ``--repeat`` run
 ``Tracer(...).trace(...)`` calls.
 
     python scripts/bench_trace.py [--assets 1000] [--meshes spot igea ...] [--repeat 3]
-        [--received simplify loop isotropic crop] [--out FILE] [--reuse DIR]
+        [--received simplify loop isotropic crop] [--seeds 1 2 3] [--out FILE] [--reuse DIR]
 
 ``--reuse DIR``: the registry and marked copies ``scripts/null_informed.py`` or an earlier run
 built (``DIR/registry.db``, ``DIR/<mesh>.npy``), instead of embedding again; the full
@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import argparse
 import hashlib
+import itertools
 import multiprocessing
 import os
 import shutil
@@ -176,6 +177,13 @@ def main() -> int:
     parser.add_argument("--meshes", nargs="+", default=["spot", "fandisk", "kitten", "igea"])
     parser.add_argument("--repeat", type=int, default=3)
     parser.add_argument("--received", nargs="+", choices=sorted(RECEIVED), default=list(RECEIVED))
+    parser.add_argument(
+        "--seeds",
+        nargs="+",
+        type=int,
+        default=[1],
+        help="seeds of the simplification, crop plane (the step after the similarity)",
+    )
     parser.add_argument("--out", type=Path)
     parser.add_argument("--reuse", type=Path, help="a folder an earlier run built")
     args = parser.parse_args()
@@ -215,9 +223,11 @@ def main() -> int:
                 copy_asset(source, target, m)
             _, faces = read_mesh(MESHES / f"{m}.ply")
             marked = np.load(Path(scratch) / f"{m}.npy")
-            for received in args.received:
+            for received, seed in itertools.product(args.received, args.seeds):
                 v, f = marked, faces
-                for name, options in RECEIVED[received]:
+                for step, (name, options) in enumerate(RECEIVED[received]):
+                    if step == 1 and "seed" in options:
+                        options = {**options, "seed": seed}
                     v, f = apply_attack(name, v, f, **options)
                 times: dict[str, list[float]] = {"one": [], "big": []}
                 found = None
@@ -233,8 +243,9 @@ def main() -> int:
                 assert found is not None
                 ok = found.detected and found.report.get("asset") == m
                 looks = found.report["candidates"]
+                label = f"{received} {seed}" if len(args.seeds) > 1 else received
                 lines.append(
-                    f"| {m} | {received} | {a:.2f} | {b:.2f} | {b / a:.2f} | "
+                    f"| {m} | {label} | {a:.2f} | {b:.2f} | {b / a:.2f} | "
                     f"{'yes' if ok else 'NO'} | {len({c['asset_id'] for c in looks})} | "
                     f"{len(looks)} |"
                 )
@@ -242,6 +253,8 @@ def main() -> int:
     for received in args.received:
         steps = ", then ".join(f"{n} {o}" for n, o in RECEIVED[received])
         lines.append(f"received {received}: {steps}")
+    if len(args.seeds) > 1:
+        lines.append(f"the second step's seed: {' '.join(map(str, args.seeds))} (after the name)")
     lines.append(f"median of {args.repeat} runs each")
     lines.append(f"registry: {held} assets, {fill_note}")
     text = "\n".join(lines)
