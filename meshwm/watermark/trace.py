@@ -12,10 +12,10 @@ own vertices and faces, the offsets through that correspondence
 (:func:`meshwm.readers.informed.same_mesh_offsets`) —, and each copy's signature, unsealed with
 the key, is tested against them (:func:`meshwm.readers.informed.identify`).  Candidates are tried
 in that order (:func:`ranked_assets`), each first through its principal frames (cheap), then
-those whose frames did not fit through the rotations spread over SO(3); the first that
-identifies a copy stops the search.  The decision counts every hypothesis that could have been
-tried (every candidate × pose × copy, each pose tried among them), so stopping early never
-raises the false-positive rate.
+those whose frames did not fit through the rotations spread over SO(3) (one whose probe fitted
+a crop at once, after its own frames); the first that identifies a copy stops the search.
+The decision counts every hypothesis that could have been tried (every candidate × pose ×
+copy, each pose tried among them), so stopping early never raises the false-positive rate.
 
 The registry is anything with the methods of :class:`RegistryView` (the storage lives in
 :mod:`meshwm.apps.registry`; this module does not import it).
@@ -232,7 +232,8 @@ def _ranked(
     fits = [i for i in np.argsort(residual, kind="stable") if residual[i] <= PROBE_FIT]
     rest = [i for i in range(len(near)) if not residual[i] <= PROBE_FIT]
     order = [near[i] for i in fits + rest][:count]
-    return order, {near[i] for i in fits} & set(order) if cropped else set()
+    fitted_crop = {near[i] for i in fits} & set(order) if cropped else set()
+    return order, fitted_crop
 
 
 class Traced(NamedTuple):
@@ -383,14 +384,16 @@ class Tracer:
         asset, and the frames of the candidates after it seldom fit a crop that moved the
         frame (each such look costs a search and a polish: about 1 s per candidate on
         human_neutral's crops, ten of them before the first one's spread found its pose)."""
-        spread = set()
+        spread_early: set[int] = set()
         for asset_id in self._order:
             yield asset_id, False
             if asset_id in self._partial and not self._candidate(asset_id, spread=False).settled:
-                spread.add(asset_id)
+                spread_early.add(asset_id)
                 yield asset_id, True
         for asset_id in self._order:
-            if asset_id not in spread and not self._candidate(asset_id, spread=False).settled:
+            if asset_id in spread_early:
+                continue
+            if not self._candidate(asset_id, spread=False).settled:
                 yield asset_id, True
 
     def trace(self, *, key: str | bytes, fpr: float = DEFAULT_FPR) -> Traced:
