@@ -573,9 +573,8 @@ def partial_residuals(
 
     def search(start: int, turns: NDArray[np.float64]) -> bool:
         """The probes from ``start`` (a group), each from the received frame under ``turns``
-        (t, 3, 3) of its own, fitted; a pose from the best shared while that improves (a
-        closer variant's pose brings the asset itself nearer its own fit).  True once a
-        probe fits."""
+        (t, 3, 3) of its own, fitted; the pose of the best, where it fits roughly, shared
+        with every probe (:func:`_shared_fits`).  True once a probe fits."""
         group = given[start : start + _BATCH]
         count = len(turns)
         # (probes, turns, 3, 3): the probe's frame onto the received one, under each turn.
