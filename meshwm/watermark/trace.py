@@ -384,16 +384,16 @@ class Tracer:
         asset, and the frames of the candidates after it seldom fit a crop that moved the
         frame (each such look costs a search and a polish: about 1 s per candidate on
         human_neutral's crops, ten of them before the first one's spread found its pose)."""
-        spread_early: set[int] = set()
+
+        def unsettled(asset_id: int) -> bool:
+            return not self._candidate(asset_id, spread=False).settled
+
         for asset_id in self._order:
             yield asset_id, False
-            if asset_id in self._partial and not self._candidate(asset_id, spread=False).settled:
-                spread_early.add(asset_id)
+            if asset_id in self._partial and unsettled(asset_id):
                 yield asset_id, True
         for asset_id in self._order:
-            if asset_id in spread_early:
-                continue
-            if not self._candidate(asset_id, spread=False).settled:
+            if asset_id not in self._partial and unsettled(asset_id):
                 yield asset_id, True
 
     def trace(self, *, key: str | bytes, fpr: float = DEFAULT_FPR) -> Traced:
