@@ -25,7 +25,6 @@ from __future__ import annotations
 
 import argparse
 import hashlib
-import itertools
 import multiprocessing
 import os
 import shutil
@@ -223,7 +222,13 @@ def main() -> int:
                 copy_asset(source, target, m)
             _, faces = read_mesh(MESHES / f"{m}.ply")
             marked = np.load(Path(scratch) / f"{m}.npy")
-            for received, seed in itertools.product(args.received, args.seeds):
+            cases = [
+                (received, seed)
+                for received in args.received
+                # the seeds of a step that has one (Loop subdivision and remeshing have none)
+                for seed in (args.seeds if "seed" in RECEIVED[received][1][1] else args.seeds[:1])
+            ]
+            for received, seed in cases:
                 v, f = marked, faces
                 for step, (name, options) in enumerate(RECEIVED[received]):
                     if step == 1 and "seed" in options:
