@@ -7,10 +7,10 @@ scale and a bend, from SHA-256 of their index), each with its own shape descript
 near-duplicates of each development mesh, some within a few per cent of it.  For each mesh, its
 first copy is moved by a random similarity, then simplified to 50 % (``--received simplify``),
 Loop-subdivided (``loop``), remeshed isotropically (``isotropic``: MeshLab, 3 iterations) or
-cropped by 30 % (``crop``: the case the shape descriptor ranks worst); then (a) traced
-against a registry of its own asset alone (one informed read: descriptor, pose, offsets, the
-copies' tests), (b) traced against the full registry; median of ``--repeat`` runs each, whole
-``Tracer(...).trace(...)`` calls.
+cropped by 30 % (``crop``: the case the shape descriptor ranks worst; ``crop10`` and
+``crop50``: 10 and 50 %); then (a) traced against a registry of its own asset alone (one
+informed read: descriptor, pose, offsets, the copies' tests), (b) traced against the full
+registry; median of ``--repeat`` runs each, whole ``Tracer(...).trace(...)`` calls.
 
     python scripts/bench_trace.py [--assets 1000] [--meshes spot igea ...] [--repeat 3]
         [--received simplify loop isotropic crop] [--seeds 1 2 3] [--out FILE] [--reuse DIR]
@@ -56,6 +56,8 @@ RECEIVED: dict[str, list[tuple[str, dict]]] = {
     "loop": [("similarity", {"seed": 11}), ("subdivide_loop", {})],
     "isotropic": [("similarity", {"seed": 11}), ("remesh_isotropic", {"iterations": 3})],
     "crop": [("similarity", {"seed": 11}), ("crop", {"seed": 1, "fraction": 0.3})],
+    "crop10": [("similarity", {"seed": 11}), ("crop", {"seed": 1, "fraction": 0.1})],
+    "crop50": [("similarity", {"seed": 11}), ("crop", {"seed": 1, "fraction": 0.5})],
 }
 
 
