@@ -13,7 +13,8 @@ informed read: descriptor, pose, offsets, the copies' tests), (b) traced against
 registry; median of ``--repeat`` runs each, whole ``Tracer(...).trace(...)`` calls.
 
     python scripts/bench_trace.py [--assets 1000] [--meshes spot igea ...] [--repeat 3]
-        [--received simplify loop isotropic crop] [--seeds 1 2 3] [--out FILE] [--reuse DIR]
+        [--received simplify loop isotropic crop crop10 crop50] [--seeds 1 2 3] [--out FILE]
+        [--reuse DIR]
 
 ``--reuse DIR``: the registry and marked copies ``scripts/null_informed.py`` or an earlier run
 built (``DIR/registry.db``, ``DIR/<mesh>.npy``), instead of embedding again; the full
@@ -224,16 +225,17 @@ def main() -> int:
                 copy_asset(source, target, m)
             _, faces = read_mesh(MESHES / f"{m}.ply")
             marked = np.load(Path(scratch) / f"{m}.npy")
+            # The seeds of the second step where it takes one (Loop subdivision and remeshing
+            # take none: run once, seed None).
             cases = [
                 (received, seed)
                 for received in args.received
-                # the seeds of a step that has one (Loop subdivision and remeshing have none)
-                for seed in (args.seeds if "seed" in RECEIVED[received][1][1] else args.seeds[:1])
+                for seed in (args.seeds if "seed" in RECEIVED[received][1][1] else [None])
             ]
             for received, seed in cases:
                 v, f = marked, faces
                 for step, (name, options) in enumerate(RECEIVED[received]):
-                    if step == 1 and "seed" in options:
+                    if step == 1 and seed is not None:
                         options = {**options, "seed": seed}
                     v, f = apply_attack(name, v, f, **options)
                 times: dict[str, list[float]] = {"one": [], "big": []}
@@ -250,7 +252,9 @@ def main() -> int:
                 assert found is not None
                 ok = found.detected and found.report.get("asset") == m
                 looks = found.report["candidates"]
-                label = f"{received} {seed}" if len(args.seeds) > 1 else received
+                label = received
+                if seed is not None and len(args.seeds) > 1:
+                    label = f"{received} {seed}"
                 lines.append(
                     f"| {m} | {label} | {a:.2f} | {b:.2f} | {b / a:.2f} | "
                     f"{'yes' if ok else 'NO'} | {len({c['asset_id'] for c in looks})} | "
