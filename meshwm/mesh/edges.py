@@ -26,16 +26,19 @@ def _group(key: NDArray, rows: NDArray) -> tuple[NDArray[np.int64], NDArray[np.i
     """``(first, inverse)`` of the rows grouped by a sort of one integer ``key`` per row that
     equal rows share (and, where it is a packed key, only they): groups in key order, ``first``
     each group's first occurrence."""
-    # numpy's unstable argsort (a vectorised quicksort) is four times its stable one on 2M
-    # keys; the first occurrence of each group is then its smallest index.
-    order = np.argsort(key)
+    # A stable sort (timsort on int64): a mesh's keys come in long runs (its faces are in a
+    # local order), where it is three times numpy's quicksort (0.5M-vertex mesh, 3.2M edge
+    # keys: 0.09 s against 0.32 s; shuffled keys 0.35 s against 0.32 s), and the first
+    # occurrence of each group is then simply its first entry.
+    order = np.argsort(key, kind="stable")
     s = key[order]
-    new = np.ones(len(rows), dtype=bool)
-    new[1:] = s[1:] != s[:-1]
+    new = np.empty(len(rows), dtype=bool)
+    new[:1] = True
+    np.not_equal(s[1:], s[:-1], out=new[1:])
     group = np.cumsum(new) - 1
     inverse = np.empty(len(rows), dtype=np.int64)
     inverse[order] = group
-    first = np.minimum.reduceat(order, np.flatnonzero(new)) if len(order) else order
+    first = order[new]
     return first.astype(np.int64), inverse
 
 
@@ -134,8 +137,9 @@ def unique_edges(faces: NDArray[np.int64]) -> tuple[NDArray[np.int64], NDArray[n
     a = faces.ravel()
     b = np.roll(faces, -1, axis=1).ravel()
     low, high = np.minimum(a, b), np.maximum(a, b)
-    n = int(high.max()) + 1
-    first, inverse = _group(low * n + high, low)
+    key = low * (int(high.max()) + 1)
+    key += high
+    first, inverse = _group(key, low)
     return np.stack([low[first], high[first]], axis=1), inverse
 
 
