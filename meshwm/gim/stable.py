@@ -414,10 +414,13 @@ class _Sources(NamedTuple):
 def _sources(smooth: NDArray[np.float64], faces: NDArray[np.int64]) -> _Sources:
     radial = np.linalg.norm(smooth - area_centroid(smooth, faces), axis=1)
     edges, _ = unique_edges(faces)
-    best = radial.copy()
-    np.maximum.at(best, edges[:, 0], radial[edges[:, 1]])
-    np.maximum.at(best, edges[:, 1], radial[edges[:, 0]])
-    tips = np.flatnonzero(radial >= best)
+    # A tip has no neighbour farther out (what ``radial >= `` its neighbours' maximum says,
+    # without ``np.maximum.at``'s scattered updates: 2 s at 2M vertices).
+    a, b = radial[edges[:, 0]], radial[edges[:, 1]]
+    below = np.zeros(len(radial), dtype=bool)
+    below[edges[a < b, 0]] = True
+    below[edges[b < a, 1]] = True
+    tips = np.flatnonzero(~below)
     tips = tips[np.argsort(-radial[tips], kind="stable")][:TIPS]
     far = int(np.argmax(radial))  # the farthest vertex, even if a neighbour ties with it
     tips = np.concatenate([[far], tips[tips != far]])[:TIPS].astype(np.int64)

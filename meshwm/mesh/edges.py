@@ -8,9 +8,13 @@ hash) rather than ``np.lexsort`` over the columns or ``np.unique(axis=0)`` over 
 
 from __future__ import annotations
 
+import threading
+
 import numpy as np
 import scipy.sparse as sp
 from numpy.typing import NDArray
+
+from meshwm._digest import arrays_key
 
 __all__ = [
     "distinct_rows",
@@ -129,11 +133,34 @@ def unique_edges(faces: NDArray[np.int64]) -> tuple[NDArray[np.int64], NDArray[n
 
     Corner-edge ``k*f + j`` goes from ``faces[f, j]`` to ``faces[f, (j+1) % k]`` (triangles,
     ``k = 3``; any polygon width, an edge list included).  The edges are ``(low, high)`` pairs
-    in lexicographic order.
+    in lexicographic order.  The arrays are read-only: the last faces' edges are kept (by a
+    digest of the faces) and handed out again for the same faces.
     """
     faces = np.asarray(faces, dtype=np.int64)
     if len(faces) == 0:
         return np.zeros((0, 2), dtype=np.int64), np.zeros(0, dtype=np.int64)
+    key = arrays_key(faces)
+    with _EDGES_LOCK:
+        found = _EDGES.get(key)
+    if found is None:
+        found = _unique_edges(faces)
+        for a in found:
+            a.flags.writeable = False
+        with _EDGES_LOCK:
+            _EDGES.clear()
+            _EDGES[key] = found
+    return found
+
+
+#: The last faces' unique edges (:func:`unique_edges`, by a digest of the faces): the cleaning,
+#: the cut's start, the map and the smoothing each ask for the edges of one connectivity (ten
+#: calls for one embedding, 1.2 s each at 2M vertices).
+_EDGES: dict[tuple, tuple[NDArray[np.int64], NDArray[np.int64]]] = {}
+_EDGES_LOCK = threading.Lock()
+
+
+def _unique_edges(faces: NDArray[np.int64]) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """:func:`unique_edges`, computed."""
     a = faces.ravel()
     b = np.roll(faces, -1, axis=1).ravel()
     low, high = np.minimum(a, b), np.maximum(a, b)
