@@ -7,7 +7,7 @@ import hashlib
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["arrays_key"]
+__all__ = ["arrays_key", "buffer_of"]
 
 
 def arrays_key(*arrays: NDArray) -> tuple:
@@ -23,7 +23,13 @@ def arrays_key(*arrays: NDArray) -> tuple:
         (
             a.shape,
             a.dtype.str,
-            hashlib.blake2b(np.ascontiguousarray(a).tobytes(), digest_size=16).digest(),
+            # The array's own buffer (``tobytes`` would copy it first: 100 MB at 2M faces).
+            hashlib.blake2b(buffer_of(a), digest_size=16).digest(),
         )
         for a in arrays
     )
+
+
+def buffer_of(a: NDArray) -> memoryview:
+    """The bytes of ``a`` in C order, without a copy where it is contiguous."""
+    return memoryview(np.ascontiguousarray(a).reshape(-1).view(np.uint8).data)

@@ -16,6 +16,7 @@ import scipy.sparse as sp
 from numpy.typing import NDArray
 from scipy.sparse.csgraph import connected_components
 
+from meshwm._digest import buffer_of
 from meshwm.errors import MeshError
 from meshwm.mesh.edges import unique_edges
 
@@ -238,7 +239,7 @@ def structure(
     alone, so the last result is kept for the same faces: the embedder's read-back cleans
     the marked mesh, whose faces are the input's.
     """
-    digest = hashlib.blake2b(np.ascontiguousarray(faces).tobytes(), digest_size=16).digest()
+    digest = hashlib.blake2b(buffer_of(faces), digest_size=16).digest()
     key = (len(vertices), faces.shape, digest)
     with _STRUCTURE_LOCK:
         if key in _STRUCTURE:
