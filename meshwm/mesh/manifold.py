@@ -18,7 +18,7 @@ from scipy.sparse.csgraph import connected_components
 
 from meshwm._digest import buffer_of
 from meshwm.errors import MeshError
-from meshwm.mesh.edges import unique_edges
+from meshwm.mesh.edges import corner_edges_by_edge, unique_edges
 
 __all__ = ["face_components", "structure"]
 
@@ -119,7 +119,7 @@ def _rebuild_connectivity(
     m = len(faces)
     edges, inverse = unique_edges(faces)
     count = np.bincount(inverse, minlength=len(edges))
-    order = np.argsort(inverse, kind="stable")
+    order = corner_edges_by_edge(faces)
     sorted_edge = inverse[order]
     two = count[sorted_edge[:-1]] == 2
     same = (sorted_edge[1:] == sorted_edge[:-1]) & two
@@ -182,7 +182,7 @@ def _inconsistent_edges(faces: NDArray[np.int64]) -> int:
     directed = np.stack([faces, np.roll(faces, -1, axis=1)], axis=2).reshape(-1, 2)
     _, inverse = unique_edges(faces)
     forward = directed[:, 0] < directed[:, 1]
-    order = np.argsort(inverse, kind="stable")
+    order = corner_edges_by_edge(faces)
     sorted_edge = inverse[order]
     same = sorted_edge[1:] == sorted_edge[:-1]
     return int(np.sum(forward[order[:-1][same]] == forward[order[1:][same]]))
