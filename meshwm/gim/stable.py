@@ -166,9 +166,9 @@ def _step(
 
 #: The last mesh's smoothing step (renumbered, :func:`_localised`): the embedder smooths one
 #: connectivity four or five times (the input, the start's checks, the read-back).  Kept only
-#: up to this many vertices (igea Loop-subdivided twice, 2.1M, is; at 5M the step alone is 0.4 GB).
+#: up to this many vertices (at 5M the step is 0.4 GB; made again, ~9 s a call there).
 _STEP_MEMO: dict[tuple, tuple[NDArray[np.int64] | None, sp.csr_matrix]] = {}
-_STEP_MEMO_ROWS = 3_000_000
+_STEP_MEMO_ROWS = 6_000_000
 
 
 #: Above this many rows, :func:`_repeat` renumbers the rows for locality first.
@@ -325,7 +325,13 @@ def _rotation(n: int, faces: NDArray[np.int64]) -> _Rotation:
         step += 1
     size = np.bincount(fan, minlength=n_fans)
     start = np.concatenate([[0], np.cumsum(size)])
-    members = np.lexsort((position, fan))
+    if (position >= 0).all():
+        # Every half-edge has its place 0 .. size - 1 in its fan: ``np.lexsort((position,
+        # fan))`` is the inverse of the permutation ``start[fan] + position``, one scatter.
+        members = np.empty(h, dtype=np.int64)
+        members[start[fan] + position] = np.arange(h)
+    else:  # pragma: no cover - a fan walk that misses a half-edge
+        members = np.lexsort((position, fan))
     return _Rotation(keys % n, twin, keys.astype(np.int64), fan, position, members, start)
 
 
