@@ -35,8 +35,11 @@ DEFAULT_PASSES = 3
 _DAMPING = 1e-10
 #: Relative residual of the multigrid solves of a large mesh's passes.
 _AMG_TOLERANCE = 1e-6
-#: At most this many conjugate-gradient iterations per multigrid solve of a pass.
-_AMG_ITERATIONS = 5
+#: At most this many conjugate-gradient iterations per multigrid solve of a pass (each pass
+#: corrects the last; igea Loop-subdivided twice, 2.1M vertices: 3 against 5 iterations, the
+#: embedding 145 s against 186 s, the same distortion with a 15 % larger step, every bit read
+#: back).
+_AMG_ITERATIONS = 3
 
 
 def uniform_laplacian(faces: NDArray[np.int64], n_vertices: int) -> sp.csr_matrix:

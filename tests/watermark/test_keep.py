@@ -172,6 +172,38 @@ def test_vertex_distances_are_exact_wherever_they_pass_the_threshold(spot_mesh, 
     assert checked > 100
 
 
+def test_vertex_distances_are_exact_on_a_mesh_of_very_uneven_edges():
+    """The faces searched follow each face's own longest edge: on a sheet whose cells grow
+    from 1e-4 to 1 of its width, every vertex's distance is still igl's over the whole mesh."""
+    import igl
+
+    from meshwm.watermark.keep import _vertex_distances
+
+    x = np.concatenate([[0.0], np.geomspace(1e-4, 1.0, 39)])
+    y = np.linspace(0.0, 0.3, 12)
+    xx, yy = np.meshgrid(x, y)
+    v = np.stack([xx.ravel(), yy.ravel(), 0.05 * np.sin(7 * xx.ravel()) * yy.ravel()], axis=1)
+    cols = len(x)
+    quads = [
+        (r * cols + c, r * cols + c + 1, (r + 1) * cols + c + 1, (r + 1) * cols + c)
+        for r in range(len(y) - 1)
+        for c in range(cols - 1)
+    ]
+    f = np.array([t for a, b, c, d in quads for t in ((a, b, c), (a, c, d))], dtype=np.int64)
+    diag = bounding_box_diagonal(v)
+    rng = np.random.default_rng(11)
+    for scale in (1e-5, 1e-3, 2e-2):
+        d = rng.normal(size=v.shape) * scale * diag
+        there = igl.point_mesh_squared_distance(v + d, v, f)[0]
+        back = igl.point_mesh_squared_distance(v, v + d, f)[0]
+        brute = np.sqrt(np.maximum(there, back))
+        above = float(np.quantile(brute, 0.8)) / diag  # a fifth of the vertices over it
+        got, _ = _vertex_distances(v, f, d, above=above)
+        over = brute > above * diag
+        assert over.sum() > 10
+        np.testing.assert_allclose(got[over], brute[over], rtol=1e-12, atol=1e-15 * diag)
+
+
 @pytest.mark.slow
 def test_the_genus_8_plate_is_marked_within_the_hausdorff_cap():
     from meshwm.apps.bench.synthetic import make
