@@ -119,6 +119,28 @@ def _on_longest_edge(tri: NDArray[np.float64], points: NDArray[np.float64]) -> N
     return bary
 
 
+#: Faces whose boxes are tested at once (:func:`_near_grid_points`): the corners' UVs and the
+#: boxes of all 10M faces of a 5M-vertex mesh at once took 1 GB.
+_BOX_CHUNK = 1_000_000
+
+
+def _near_grid_points(
+    u: NDArray[np.float64], f: NDArray[np.int64], size: int, tolerance: float
+) -> NDArray[np.int64]:
+    """The faces whose UV box, widened by ``tolerance``, may hold a grid point, increasing."""
+    scale = size - 1
+    slack = 1e-9  # grid coordinates are rounded quotients: keep every box that may touch one
+    out = []
+    for lo in range(0, len(f), _BOX_CHUNK):
+        g = f[lo : lo + _BOX_CHUNK]
+        a, b, c = u[g[:, 0]], u[g[:, 1]], u[g[:, 2]]
+        first = np.ceil((np.minimum(np.minimum(a, b), c) - tolerance) * scale - slack)
+        last = np.floor((np.maximum(np.maximum(a, b), c) + tolerance) * scale + slack)
+        inside = (first <= last) & (last >= 0) & (first <= scale)
+        out.append(lo + np.flatnonzero(inside[:, 0] & inside[:, 1]))
+    return np.concatenate(out) if out else np.zeros(0, dtype=np.int64)
+
+
 def sampling_matrix(
     uv: NDArray[np.float64],
     faces: NDArray[np.int64],
@@ -178,13 +200,7 @@ def sampling_matrix(
     # Only triangles whose box (widened by the tolerance) holds a grid point can cover one: a
     # fine mesh has far more triangles than the grid has points (igea at 537k vertices, N =
     # 128: 1.07M triangles, 16k points), and the tree over them all cost a second a sampling.
-    a, b, c = u[f[:, 0]], u[f[:, 1]], u[f[:, 2]]
-    scale = size - 1
-    slack = 1e-9  # grid coordinates are rounded quotients: keep every box that may touch one
-    first = np.ceil((np.minimum(np.minimum(a, b), c) - tolerance) * scale - slack)
-    last = np.floor((np.maximum(np.maximum(a, b), c) + tolerance) * scale + slack)
-    inside = (first <= last) & (last >= 0) & (first <= scale)
-    near = np.flatnonzero(inside[:, 0] & inside[:, 1])
+    near = _near_grid_points(u, f, size, tolerance)
     covered = np.zeros(size * size, dtype=bool)
     if len(near) == 0:
         return Sampling(
