@@ -121,9 +121,10 @@ def _hashed_groups(v: NDArray) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
 def distinct_rows(rows: NDArray) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
     """Bit-identical rows of a float64 or int64 array grouped, numbered by first appearance.
 
-    Returns ``(first, inverse)``: the index of each group's first row, in increasing order
-    (so ``rows[first]`` keeps the rows' own order), and each row's group.  One sort of a hash
-    of each row (:func:`_hashed_groups`) instead of ``np.unique`` over the rows' bytes.
+    Returns ``(first, inverse)`` (read-only): the index of each group's first row, in
+    increasing order (so ``rows[first]`` keeps the rows' own order), and each row's group.
+    One sort of a hash of each row (:func:`_hashed_groups`) instead of ``np.unique`` over the
+    rows' bytes.
 
     Examples
     --------
@@ -131,11 +132,29 @@ def distinct_rows(rows: NDArray) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
     >>> first.tolist(), inverse.tolist()
     ([0, 1, 3], [0, 1, 0, 2])
     """
-    first, inverse = _hashed_groups(np.asarray(rows))
-    order = np.argsort(first)  # distinct values: any sort gives this order
-    rank = np.empty(len(order), dtype=np.int64)
-    rank[order] = np.arange(len(order))
-    return first[order], rank[inverse]
+    rows = np.asarray(rows)
+    key = arrays_key(rows)
+    with _DISTINCT_LOCK:
+        found = _DISTINCT.get(key)
+    if found is None:
+        first, inverse = _hashed_groups(rows)
+        order = np.argsort(first)  # distinct values: any sort gives this order
+        rank = np.empty(len(order), dtype=np.int64)
+        rank[order] = np.arange(len(order))
+        found = (first[order], rank[inverse])
+        for a in found:
+            a.flags.writeable = False
+        with _DISTINCT_LOCK:
+            _DISTINCT.clear()
+            _DISTINCT[key] = found
+    return found
+
+
+#: The last rows' :func:`distinct_rows` (read-only), by a digest: a mesh's positions are
+#: grouped twice in a row (the surface's distinct positions, then the cleaning's merge of
+#: the same bytes), 0.2 s each at 0.5M vertices.
+_DISTINCT: dict[tuple, tuple[NDArray[np.int64], NDArray[np.int64]]] = {}
+_DISTINCT_LOCK = threading.Lock()
 
 
 def unique_edges(faces: NDArray[np.int64]) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
