@@ -166,9 +166,10 @@ def _step(
 
 #: The last mesh's smoothing step (renumbered, :func:`_localised`): the embedder smooths one
 #: connectivity four or five times (the input, the start's checks, the read-back).  Kept only
-#: up to this many vertices (at 5M the step is 0.4 GB; made again, ~9 s a call there).
+#: up to this many vertices (igea Loop-subdivided twice, 2.1M, is; at 5M the step alone is
+#: 0.4 GB, and kept it put the embedding's peak over 8 GB).
 _STEP_MEMO: dict[tuple, tuple[NDArray[np.int64] | None, sp.csr_matrix]] = {}
-_STEP_MEMO_ROWS = 6_000_000
+_STEP_MEMO_ROWS = 3_000_000
 
 
 #: Above this many rows, :func:`_repeat` renumbers the rows for locality first.

@@ -178,19 +178,23 @@ def corner_edges_by_edge(faces: NDArray[np.int64]) -> NDArray[np.int64]:
     faces = np.asarray(faces, dtype=np.int64)
     if len(faces) == 0:
         return np.zeros(0, dtype=np.int64)
-    return _edges_of(faces)[2]
+    _, inverse, order = _edges_of(faces)
+    return np.argsort(inverse, kind="stable") if order is None else order
 
 
 def _edges_of(
     faces: NDArray[np.int64],
-) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.int64]]:
+) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.int64] | None]:
     key = arrays_key(faces)
     with _EDGES_LOCK:
         found = _EDGES.get(key)
     if found is None:
-        found = _unique_edges(faces)
+        edges, inverse, order = _unique_edges(faces)
+        # The order is 240 MB at 5M vertices, kept through the embedding's peak.
+        found = (edges, inverse, order if inverse.size <= _ORDER_MEMO_SIZE else None)
         for a in found:
-            a.flags.writeable = False
+            if a is not None:
+                a.flags.writeable = False
         with _EDGES_LOCK:
             _EDGES.clear()
             _EDGES[key] = found
@@ -200,8 +204,10 @@ def _edges_of(
 #: The last faces' unique edges (:func:`unique_edges`, by a digest of the faces): the cleaning,
 #: the cut's start, the map and the smoothing each ask for the edges of one connectivity (ten
 #: calls for one embedding, 1.2 s each at 2M vertices).
-_EDGES: dict[tuple, tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.int64]]] = {}
+_EDGES: dict[tuple, tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.int64] | None]] = {}
 _EDGES_LOCK = threading.Lock()
+#: The most corner-edges whose sorted order is kept with them (about 2M vertices).
+_ORDER_MEMO_SIZE = 13_000_000
 
 
 def _unique_edges(
