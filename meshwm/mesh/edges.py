@@ -27,7 +27,7 @@ __all__ = [
 ]
 
 
-def _group(key: NDArray, rows: NDArray) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+def _group(key: NDArray) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
     """``(first, inverse)`` of the rows grouped by a sort of one integer ``key`` per row that
     equal rows share (and, where it is a packed key, only they): groups in key order, ``first``
     each group's first occurrence."""
@@ -80,7 +80,7 @@ def unique_rows(rows: NDArray) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
             key = np.zeros(len(rows), dtype=np.int64)
             for k in range(rows.shape[1]):
                 key = key * base + (rows[:, k].astype(np.int64) - low)
-            return _group(key, rows)
+            return _group(key)
     order = np.lexsort(rows.T[::-1])
     s = rows[order]
     new = np.ones(len(rows), dtype=bool)
@@ -109,7 +109,7 @@ def _hashed_groups(v: NDArray) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
         for k in range(bits.shape[1]):
             h = (h ^ bits[:, k]) * mix
             h ^= h >> np.uint64(29)
-    first, inverse = _group(h.view(np.int64), v)
+    first, inverse = _group(h.view(np.int64))
     # Only rows grouped with an earlier one need checking (a collision: exact but slower).
     rep = first[inverse]
     later = np.flatnonzero(rep != np.arange(len(v)))
@@ -173,8 +173,9 @@ def unique_edges(faces: NDArray[np.int64]) -> tuple[NDArray[np.int64], NDArray[n
 
 
 def corner_edges_by_edge(faces: NDArray[np.int64]) -> NDArray[np.int64]:
-    """The corner-edges of :func:`unique_edges` sorted by their edge, stably: the same as
-    ``np.argsort(unique_edges(faces)[1], kind="stable")``, without the sort (read-only)."""
+    """The corner-edges of :func:`unique_edges` sorted by their edge, stably:
+    ``np.argsort(unique_edges(faces)[1], kind="stable")``, the grouping's own order where it
+    was kept with the edges (up to :data:`_ORDER_MEMO_SIZE` corner-edges; read-only)."""
     faces = np.asarray(faces, dtype=np.int64)
     if len(faces) == 0:
         return np.zeros(0, dtype=np.int64)
