@@ -50,3 +50,37 @@ def test_unique_rows_of_integers_is_numpys_unique_over_rows(seed):
         assert np.array_equal(v[got_first], values)
         assert np.array_equal(got_first, first)
         assert np.array_equal(got_inverse, inverse.ravel())
+
+
+@pytest.mark.parametrize("keep_order", [True, False])
+def test_unique_edges_and_their_corner_order_are_the_plain_definitions(keep_order, monkeypatch):
+    """Kept for the last faces (read-only) and handed out again: the same as computed afresh,
+    whether the corner-edges' order is kept with them or sorted on demand."""
+    from meshwm.mesh import edges as module
+    from meshwm.mesh.edges import corner_edges_by_edge, unique_edges
+
+    if not keep_order:
+        monkeypatch.setattr(module, "_ORDER_MEMO_SIZE", 0)
+    rng = np.random.default_rng(3)
+    for _ in range(40):
+        f = rng.integers(0, int(rng.integers(3, 30)), (int(rng.integers(1, 50)), 3))
+        a = f.ravel()
+        b = np.roll(f, -1, axis=1).ravel()
+        pairs = np.stack([np.minimum(a, b), np.maximum(a, b)], axis=1)
+        want, inverse = np.unique(pairs, axis=0, return_inverse=True)
+        for copy in (f, f.copy()):  # the second a kept result for an equal array
+            edges, got = unique_edges(copy)
+            assert np.array_equal(edges, want) and np.array_equal(got, inverse.ravel())
+            order = corner_edges_by_edge(copy)
+            assert np.array_equal(order, np.argsort(inverse.ravel(), kind="stable"))
+            assert not edges.flags.writeable and not got.flags.writeable
+
+
+def test_distinct_rows_kept_for_the_same_bytes_only():
+    v = np.array([[1.0, 0.0], [0.0, 2.0], [1.0, 0.0]])
+    first, inverse = distinct_rows(v)
+    assert not first.flags.writeable
+    moved = v.copy()
+    moved[2, 0] = 3.0  # other bytes: computed again, not the kept groups
+    assert distinct_rows(moved)[1].tolist() == [0, 1, 2]
+    assert distinct_rows(v.copy())[1].tolist() == inverse.tolist() == [0, 1, 0]
