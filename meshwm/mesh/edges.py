@@ -8,13 +8,11 @@ hash) rather than ``np.lexsort`` over the columns or ``np.unique(axis=0)`` over 
 
 from __future__ import annotations
 
-import threading
-
 import numpy as np
 import scipy.sparse as sp
 from numpy.typing import NDArray
 
-from meshwm._digest import arrays_key
+from meshwm._digest import LastResult, arrays_key
 
 __all__ = [
     "corner_edges_by_edge",
@@ -134,8 +132,7 @@ def distinct_rows(rows: NDArray) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
     """
     rows = np.asarray(rows)
     key = arrays_key(rows)
-    with _DISTINCT_LOCK:
-        found = _DISTINCT.get(key)
+    found: tuple[NDArray[np.int64], NDArray[np.int64]] | None = _DISTINCT.get(key)
     if found is None:
         first, inverse = _hashed_groups(rows)
         order = np.argsort(first)  # distinct values: any sort gives this order
@@ -144,17 +141,14 @@ def distinct_rows(rows: NDArray) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
         found = (first[order], rank[inverse])
         for a in found:
             a.flags.writeable = False
-        with _DISTINCT_LOCK:
-            _DISTINCT.clear()
-            _DISTINCT[key] = found
+        _DISTINCT.put(key, found)
     return found
 
 
 #: The last rows' :func:`distinct_rows` (read-only), by a digest: a mesh's positions are
 #: grouped twice in a row (the surface's distinct positions, then the cleaning's merge of
 #: the same bytes), 0.2 s each at 0.5M vertices.
-_DISTINCT: dict[tuple, tuple[NDArray[np.int64], NDArray[np.int64]]] = {}
-_DISTINCT_LOCK = threading.Lock()
+_DISTINCT = LastResult()
 
 
 def unique_edges(faces: NDArray[np.int64]) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
@@ -187,8 +181,8 @@ def _edges_of(
     faces: NDArray[np.int64],
 ) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.int64] | None]:
     key = arrays_key(faces)
-    with _EDGES_LOCK:
-        found = _EDGES.get(key)
+    found: tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.int64] | None] | None
+    found = _EDGES.get(key)
     if found is None:
         edges, inverse, order = _unique_edges(faces)
         # The order is 240 MB at 5M vertices, kept through the embedding's peak.
@@ -196,17 +190,14 @@ def _edges_of(
         for a in found:
             if a is not None:
                 a.flags.writeable = False
-        with _EDGES_LOCK:
-            _EDGES.clear()
-            _EDGES[key] = found
+        _EDGES.put(key, found)
     return found
 
 
 #: The last faces' unique edges (:func:`unique_edges`, by a digest of the faces): the cleaning,
 #: the cut's start, the map and the smoothing each ask for the edges of one connectivity (ten
 #: calls for one embedding, 1.2 s each at 2M vertices).
-_EDGES: dict[tuple, tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.int64] | None]] = {}
-_EDGES_LOCK = threading.Lock()
+_EDGES = LastResult()
 #: The most corner-edges whose sorted order is kept with them (about 2M vertices).
 _ORDER_MEMO_SIZE = 13_000_000
 

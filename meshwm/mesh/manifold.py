@@ -7,7 +7,6 @@ edge; :func:`structure` keeps the last result for the same faces.
 
 from __future__ import annotations
 
-import hashlib
 import threading
 
 import igl
@@ -16,7 +15,7 @@ import scipy.sparse as sp
 from numpy.typing import NDArray
 from scipy.sparse.csgraph import connected_components
 
-from meshwm._digest import buffer_of
+from meshwm._digest import arrays_key
 from meshwm.errors import MeshError
 from meshwm.mesh.edges import corner_edges_by_edge, unique_edges
 
@@ -239,8 +238,7 @@ def structure(
     alone, so the last result is kept for the same faces: the embedder's read-back cleans
     the marked mesh, whose faces are the input's.
     """
-    digest = hashlib.blake2b(buffer_of(faces), digest_size=16).digest()
-    key = (len(vertices), faces.shape, digest)
+    key = (len(vertices), *arrays_key(faces))
     with _STRUCTURE_LOCK:
         if key in _STRUCTURE:
             return _STRUCTURE[key]

@@ -19,7 +19,6 @@ References
 from __future__ import annotations
 
 import dataclasses
-import threading
 from typing import Any, NamedTuple
 
 import igl
@@ -28,7 +27,7 @@ from numpy.typing import NDArray
 from scipy.spatial import cKDTree
 from trimesh.triangles import closest_point
 
-from meshwm._digest import arrays_key
+from meshwm._digest import LastResult, arrays_key
 from meshwm.errors import CapacityError, MeshError
 from meshwm.gim.sampling import Sampling
 from meshwm.gim.sphere import point_set
@@ -150,17 +149,14 @@ class _Host(NamedTuple):
     longest: NDArray[np.float64]
 
 
-#: The last input's :class:`_Host` (by a digest of its arrays): an embedding measures
-#: distances to one input four to six times, and its longest edge alone took 0.2 s a call at
-#: 0.5M vertices.
-_HOST: dict[tuple, _Host] = {}
-_HOST_LOCK = threading.Lock()
+#: The last input's :class:`_Host`: an embedding measures distances to one input four to six
+#: times, and its longest edge alone took 0.2 s a call at 0.5M vertices.
+_HOST = LastResult()
 
 
 def _host(positions: NDArray[np.float64], faces: NDArray[np.int64]) -> _Host:
     key = arrays_key(positions, faces)
-    with _HOST_LOCK:
-        found = _HOST.get(key)
+    found: _Host | None = _HOST.get(key)
     if found is not None:
         return found
     used = _used(faces, len(positions))
@@ -175,9 +171,7 @@ def _host(positions: NDArray[np.float64], faces: NDArray[np.int64]) -> _Host:
     used.flags.writeable = False
     longest.flags.writeable = False
     found = _Host(used, diag, edge, longest)
-    with _HOST_LOCK:
-        _HOST.clear()
-        _HOST[key] = found
+    _HOST.put(key, found)
     return found
 
 
@@ -243,8 +237,6 @@ def _vertex_distances(
     ask = ask[bound[ask] > above * diag]
     if len(ask) == 0:
         return out, diag
-    # The longest edge of either surface, bounded: the input's plus twice the largest move (a
-    # larger reach only adds faces farther than the nearest, the distances stay the same).
     # The faces that can hold a query point's nearest point: that point is within the query's
     # bound, so each corner of its face is within the bound plus the face's longest edge of
     # the query (on the moved surface the input's edge grown by twice its corners' largest
