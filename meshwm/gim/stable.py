@@ -56,7 +56,7 @@ import scipy.sparse as sp
 from numpy.typing import NDArray
 from scipy.sparse.csgraph import connected_components, reverse_cuthill_mckee
 
-from meshwm._digest import arrays_key
+from meshwm._digest import LastResult, arrays_key
 from meshwm.errors import MeshError
 from meshwm.gim.cut import CutMesh, area_centroid, cut_open, path_edges
 from meshwm.mesh.clean import euler_characteristic, uniform_smoothing_operator, unique_edges
@@ -153,14 +153,11 @@ def _step(
     """The smoothing step of this connectivity, localised (:func:`_localised`), kept in
     :data:`_STEP_MEMO`."""
     key = (*arrays_key(faces), n, float(lam))
-    with _MEMO_LOCK:
-        local = _STEP_MEMO.get(key)
+    local: tuple[NDArray[np.int64] | None, sp.csr_matrix] | None = _STEP_MEMO.get(key)
     if local is None:
         local = _localised(_smoothing_step(n, faces, lam))
         if n <= _STEP_MEMO_ROWS:
-            with _MEMO_LOCK:
-                _STEP_MEMO.clear()
-                _STEP_MEMO[key] = local
+            _STEP_MEMO.put(key, local)
     return local
 
 
@@ -168,7 +165,7 @@ def _step(
 #: connectivity four or five times (the input, the start's checks, the read-back).  Kept only
 #: up to this many vertices (igea Loop-subdivided twice, 2.1M, is; at 5M the step alone is
 #: 0.4 GB, and kept it put the embedding's peak over 8 GB).
-_STEP_MEMO: dict[tuple, tuple[NDArray[np.int64] | None, sp.csr_matrix]] = {}
+_STEP_MEMO = LastResult()
 _STEP_MEMO_ROWS = 3_000_000
 
 

@@ -7,15 +7,13 @@ edge; :func:`structure` keeps the last result for the same faces.
 
 from __future__ import annotations
 
-import threading
-
 import igl
 import numpy as np
 import scipy.sparse as sp
 from numpy.typing import NDArray
 from scipy.sparse.csgraph import connected_components
 
-from meshwm._digest import arrays_key
+from meshwm._digest import LastResult, arrays_key
 from meshwm.errors import MeshError
 from meshwm.mesh.edges import corner_edges_by_edge, unique_edges
 
@@ -223,8 +221,7 @@ def face_components(n_vertices: int, faces: NDArray[np.int64]) -> NDArray[np.int
 
 
 #: The last mesh's connectivity work (:func:`_structure`), by a digest of its faces.
-_STRUCTURE: dict[tuple, tuple] = {}
-_STRUCTURE_LOCK = threading.Lock()
+_STRUCTURE = LastResult()
 
 
 def structure(
@@ -239,9 +236,10 @@ def structure(
     the marked mesh, whose faces are the input's.
     """
     key = (len(vertices), *arrays_key(faces))
-    with _STRUCTURE_LOCK:
-        if key in _STRUCTURE:
-            return _STRUCTURE[key]
+    kept: tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.int64], dict] | None
+    kept = _STRUCTURE.get(key)
+    if kept is not None:
+        return kept
     source, f, split, resolved = _rebuild_connectivity(vertices, faces)
     labels = face_components(len(source), f)
     f, flipped = _orient(f, labels)
@@ -254,7 +252,5 @@ def structure(
     for a in found[:3]:
         a.flags.writeable = False
     if resolved == 0:
-        with _STRUCTURE_LOCK:
-            _STRUCTURE.clear()
-            _STRUCTURE[key] = found
+        _STRUCTURE.put(key, found)
     return found
