@@ -16,6 +16,7 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
+from meshwm._vector import face_cross, row_norm
 from meshwm.errors import MeshError
 
 __all__ = ["Filled", "boundary_loops", "fill_holes", "loop_length"]
@@ -144,8 +145,7 @@ def fill_holes(
         return Filled(faces, np.zeros((0, 3)), np.zeros(0, dtype=np.int64), [])
     lengths = np.array([loop_length(points, loop) for loop in loops])
     keep = int(np.argmax(lengths))
-    tri = points[faces]
-    area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
+    area = 0.5 * row_norm(face_cross(points, faces))
     if lengths[keep] < min_border * np.sqrt(area.sum()):
         keep = -1
     inner = [loop for i, loop in enumerate(loops) if i != keep]

