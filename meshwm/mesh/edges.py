@@ -54,6 +54,40 @@ def _sorted_groups(
     return first.astype(np.int64), inverse, order.astype(np.int64)
 
 
+def _row_order(rows: NDArray) -> NDArray[np.int64]:
+    """``np.lexsort(rows.T[::-1])``: rows in lexicographic order, equal rows in their own.
+
+    One stable sort of the first column, then a lexicographic sort of only the rows whose
+    first value is tied: a scan's or a subdivided mesh's coordinates rarely are (2.1M float
+    rows: 0.4 s against 1 s for the three sorts of ``np.lexsort``).  Quantised coordinates
+    are tied nearly everywhere, where ``np.lexsort`` is faster: the ties of a sample of the
+    first column (m of n values: about (m/n)² of the whole column's) pick it where they
+    foretell more than one tie per five rows.
+    """
+    column = rows[:, 0]
+    n = len(column)
+    sample = column[:: max(1, n // 4096)]
+    ties = len(sample) - len(np.unique(sample))
+    if rows.shape[1] == 1 or ties * (n / len(sample)) ** 2 > 0.2 * n:
+        return np.lexsort(rows.T[::-1])
+    order = np.argsort(column, kind="stable")
+    if len(rows) < 2:
+        return order
+    s = column[order]
+    equal = s[1:] == s[:-1]
+    if not equal.any():
+        return order
+    tied = np.zeros(len(rows), dtype=bool)
+    tied[1:] |= equal
+    tied[:-1] |= equal
+    at = np.flatnonzero(tied)
+    group = np.cumsum(np.concatenate([[True], ~equal]))[at]  # runs stay where they are
+    sub = order[at]
+    keys = [rows[sub, k] for k in range(rows.shape[1] - 1, 0, -1)]
+    order[at] = sub[np.lexsort([*keys, group])]
+    return order
+
+
 def unique_rows(rows: NDArray) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
     """``np.unique(rows, axis=0, return_index=True, return_inverse=True)[1:]``, faster.
 
@@ -79,7 +113,7 @@ def unique_rows(rows: NDArray) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
             for k in range(rows.shape[1]):
                 key = key * base + (rows[:, k].astype(np.int64) - low)
             return _group(key)
-    order = np.lexsort(rows.T[::-1])
+    order = _row_order(rows)
     s = rows[order]
     new = np.ones(len(rows), dtype=bool)
     new[1:] = np.any(s[1:] != s[:-1], axis=1)

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from meshwm.mesh.edges import distinct_rows, unique_rows
+from meshwm.mesh.edges import _row_order, distinct_rows, unique_rows
 
 
 def _table(rng: np.random.Generator) -> np.ndarray:
@@ -23,6 +23,26 @@ def test_unique_rows_is_numpys_unique_over_rows(seed):
         got_first, got_inverse = unique_rows(v)
         assert np.array_equal(v[got_first], values)  # the same rows, in the same order
         assert np.array_equal(got_first, first)  # each one's first occurrence
+        assert np.array_equal(got_inverse, inverse.ravel())
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_row_order_is_lexsort_with_few_or_many_ties(seed):
+    # Few ties (a scan): the first column's sort, then only its tied rows; many (quantised):
+    # np.lexsort itself.  Either way np.lexsort's order, equal rows in their own order.
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(2, 20000))
+    v = rng.normal(size=(n, 3))
+    pick = rng.integers(0, n, n // 50)
+    v[pick, 0] = v[rng.integers(0, n, len(pick)), 0]  # some first values tied
+    v[rng.integers(0, n, n // 100)] = v[rng.integers(0, n, n // 100)]  # some whole rows
+    v[rng.integers(0, n, n // 100), 0] = -0.0
+    v[rng.integers(0, n, n // 100), 0] = 0.0
+    for rows in (v, np.round(v * 4) / 4):
+        assert np.array_equal(_row_order(rows), np.lexsort(rows.T[::-1]))
+        values, first, inverse = np.unique(rows, axis=0, return_index=True, return_inverse=True)
+        got_first, got_inverse = unique_rows(rows)
+        assert np.array_equal(got_first, first)
         assert np.array_equal(got_inverse, inverse.ravel())
 
 
