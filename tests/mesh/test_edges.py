@@ -42,6 +42,7 @@ def test_row_order_is_lexsort_with_few_or_many_ties(seed):
         assert np.array_equal(_row_order(rows), np.lexsort(rows.T[::-1]))
         values, first, inverse = np.unique(rows, axis=0, return_index=True, return_inverse=True)
         got_first, got_inverse = unique_rows(rows)
+        assert np.array_equal(rows[got_first], values)
         assert np.array_equal(got_first, first)
         assert np.array_equal(got_inverse, inverse.ravel())
 
