@@ -300,8 +300,7 @@ def _rotation(n: int, faces: NDArray[np.int64]) -> _Rotation:
     has_pred = np.zeros(h, dtype=bool)
     has_pred[index[m3:]] = True
     # The twin of (a, b) at corner k is (b, a), the (a, c) of corner k + 1, and vice versa.
-    corner = np.arange(m3)
-    next_corner = corner - corner % 3 + (corner % 3 + 1) % 3
+    next_corner = np.arange(m3).reshape(-1, 3)[:, [1, 2, 0]].ravel()  # no modulo: 13M at 2M
     twin = np.empty(h, dtype=np.int64)
     twin[from_key] = index[m3 + next_corner]
     twin[index[m3 + next_corner]] = from_key
