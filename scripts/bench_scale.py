@@ -6,12 +6,14 @@ midpoints until about 5M), made in a cache folder (a temporary one by default), 
 committed.  Every measurement runs in a fresh process (wall time of the whole operation,
 reading the file included, and the process's peak resident memory):
 
-- **floor**: reading the file, a cut to a disk and one harmonic solve.  Measured two ways:
+- **floor**: reading the file, a cut to a disk and one harmonic solve.  Measured three ways:
   libigl's (``igl.cut_to_disk`` on the mesh, ``igl.harmonic`` with four fixed vertices, its
-  sparse Cholesky) up to 2M vertices, and the linear one (a breadth-first tree cut, one
-  cotangent-Laplacian solve with the same four vertices fixed by meshwm's own solver,
-  :mod:`meshwm.gim.solve`: CHOLMOD's supernodal Cholesky up to 600k unknowns, multigrid
-  above); the ratios are to that floor, the fastest solve meshwm has;
+  sparse Cholesky) up to 2M vertices; a breadth-first tree cut and one cotangent-Laplacian
+  solve with the same four vertices fixed by meshwm's own solver (:mod:`meshwm.gim.solve`:
+  CHOLMOD's supernodal Cholesky up to 600k unknowns, multigrid above), the floor the ratios
+  are to; and the same with uniform weights (the graph Laplacian, the kind of solve the kept
+  mode's Tutte map makes), whose multigrid solve stays linear where the cotangent one does
+  not (the *uniform floor*, a second ratio for the embeddings);
 - **kept**: ``meshwm.embed(v, f, key=..., ident=..., distances=False)`` (the user's mesh kept),
   then reading the marked file and ``Decoder(...).extract_id``;
 - **grid N**: the same with ``grid=True`` at N = 256 and 1024.
@@ -189,6 +191,15 @@ def _floor_pieces(v, f, *, igl_pieces: bool) -> dict:  # type: ignore[no-untyped
     t = time.perf_counter()
     solve_with_fixed(-igl.cotmatrix(v, f), fixed, values)
     out["harmonic_amg"] = time.perf_counter() - t
+    # The same solve with uniform weights (the graph Laplacian D - A, what the kept mode's
+    # Tutte map solves): an M-matrix, on which multigrid needs the same few iterations at
+    # every size, where the cotangent weights of obtuse triangles are negative and slow it.
+    t = time.perf_counter()
+    a = sp.csr_matrix((np.ones(len(e)), (e[:, 0], e[:, 1])), shape=(n, n))
+    a = ((a + a.T) > 0).astype(np.float64)
+    laplacian = sp.diags(np.asarray(a.sum(axis=1)).ravel()) - a
+    solve_with_fixed(sp.csc_matrix(laplacian), fixed, values)
+    out["harmonic_uniform"] = time.perf_counter() - t
     return out
 
 
@@ -229,14 +240,14 @@ def measure(args: argparse.Namespace, cache: Path, out: Path) -> None:
 
     meshes = make_meshes(cache, args.sizes)
     lines = [
-        "| mesh | vertices | run | embed s | × floor | embed peak GB | extract s | × floor "
-        "| extract peak GB | reads |",
-        "|---|---:|---|---:|---:|---:|---:|---:|---:|---|",
+        "| mesh | vertices | run | embed s | × floor | × uniform floor | embed peak GB "
+        "| extract s | × floor | extract peak GB | reads |",
+        "|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---|",
     ]
     floors = [
-        "| vertices | read s | BFS cut s | harmonic s | linear floor s | peak GB "
-        "| igl cut_to_disk s | igl harmonic s |",
-        "|---:|---:|---:|---:|---:|---:|---:|---:|",
+        "| vertices | read s | BFS cut s | harmonic s | floor s | uniform harmonic s "
+        "| uniform floor s | peak GB | igl cut_to_disk s | igl harmonic s |",
+        "|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
     ]
     series: dict[str, list[tuple[int, float]]] = {}
     for size in sorted(args.sizes):
@@ -261,13 +272,17 @@ def measure(args: argparse.Namespace, cache: Path, out: Path) -> None:
         fl = results["floor"]
         parts = [_median(fl, k) for k in ("read", "cut_bfs", "harmonic_amg")]
         floor = sum(parts) if all(p is not None for p in parts) else None  # type: ignore[misc]
+        uniform = _median(fl, "harmonic_uniform")
+        u_floor = floor - parts[2] + uniform if floor and uniform else None  # type: ignore[operator]
         floors.append(
             f"| {n:,} | {_fmt(parts[0], 2)} | {_fmt(parts[1], 2)} | {_fmt(parts[2], 2)} "
-            f"| {_fmt(floor, 2)} | {_fmt(_median(fl, 'peak_gb'), 2)} "
+            f"| {_fmt(floor, 2)} | {_fmt(uniform, 2)} | {_fmt(u_floor, 2)} "
+            f"| {_fmt(_median(fl, 'peak_gb'), 2)} "
             f"| {_fmt((igl_floor or {}).get('cut_igl'), 2)} "
             f"| {_fmt((igl_floor or {}).get('harmonic_igl'), 2)} |"
         )
         series.setdefault("floor", []).append((n, floor or 0.0))
+        series.setdefault("uniform floor", []).append((n, u_floor or 0.0))
         for run in RUNS[1:]:
             if run not in args.runs:
                 continue
@@ -282,6 +297,7 @@ def measure(args: argparse.Namespace, cache: Path, out: Path) -> None:
             lines.append(
                 f"| igea {size:g}M | {n:,} | {run} | {_fmt(e_s)} "
                 f"| {_fmt(e_s / floor if e_s and floor else None, 2)} "
+                f"| {_fmt(e_s / u_floor if e_s and u_floor else None, 2)} "
                 f"| {_fmt(_median(emb, 'peak_gb'), 2)} | {_fmt(x_s)} "
                 f"| {_fmt(x_s / floor if x_s and floor else None, 2)} "
                 f"| {_fmt(_median(ext, 'peak_gb'), 2)} | {reads}{' ' + note if note else ''} |"
