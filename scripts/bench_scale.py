@@ -12,8 +12,7 @@ reading the file included, and the process's peak resident memory):
   solve with the same four vertices fixed by meshwm's own solver (:mod:`meshwm.gim.solve`:
   CHOLMOD's supernodal Cholesky up to 600k unknowns, multigrid above), the floor the ratios
   are to; and the same with uniform weights (the graph Laplacian, the kind of solve the kept
-  mode's Tutte map makes), whose multigrid solve stays linear where the cotangent one does
-  not (the *uniform floor*, a second ratio for the embeddings);
+  mode's Tutte map makes: the *uniform floor*, a second ratio for the embeddings);
 - **kept**: ``meshwm.embed(v, f, key=..., ident=..., distances=False)`` (the user's mesh kept),
   then reading the marked file and ``Decoder(...).extract_id``;
 - **grid N**: the same with ``grid=True`` at N = 256 and 1024.
@@ -192,8 +191,9 @@ def _floor_pieces(v, f, *, igl_pieces: bool) -> dict:  # type: ignore[no-untyped
     solve_with_fixed(-igl.cotmatrix(v, f), fixed, values)
     out["harmonic_amg"] = time.perf_counter() - t
     # The same solve with uniform weights (the graph Laplacian D - A, what the kept mode's
-    # Tutte map solves): an M-matrix, on which multigrid needs the same few iterations at
-    # every size, where the cotangent weights of obtuse triangles are negative and slow it.
+    # Tutte map solves): an M-matrix, where the cotangent weights of obtuse triangles are
+    # negative.  (Measured, it grows as fast: not the weights, the solve's cost per
+    # multigrid iteration; docs/bench/scale.md.)
     t = time.perf_counter()
     a = sp.csr_matrix((np.ones(len(e)), (e[:, 0], e[:, 1])), shape=(n, n))
     a = ((a + a.T) > 0).astype(np.float64)
