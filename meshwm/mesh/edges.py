@@ -64,15 +64,15 @@ def _row_order(rows: NDArray) -> NDArray[np.int64]:
     first column (m of n values: about (m/n)² of the whole column's) pick it where they
     foretell more than one tie per five rows.
     """
+    n = len(rows)
+    if n < 2 or rows.shape[1] == 1:
+        return np.lexsort(rows.T[::-1])
     column = rows[:, 0]
-    n = len(column)
     sample = column[:: max(1, n // 4096)]
     ties = len(sample) - len(np.unique(sample))
-    if rows.shape[1] == 1 or ties * (n / len(sample)) ** 2 > 0.2 * n:
+    if ties * (n / len(sample)) ** 2 > 0.2 * n:
         return np.lexsort(rows.T[::-1])
     order = np.argsort(column, kind="stable")
-    if len(rows) < 2:
-        return order
     s = column[order]
     equal = s[1:] == s[:-1]
     if not equal.any():

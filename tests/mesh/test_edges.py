@@ -47,6 +47,14 @@ def test_row_order_is_lexsort_with_few_or_many_ties(seed):
         assert np.array_equal(got_inverse, inverse.ravel())
 
 
+@pytest.mark.parametrize("n", [0, 1, 2])
+def test_unique_rows_of_no_one_or_two_float_rows(n):
+    rows = np.arange(3.0 * n).reshape(n, 3)[::-1].copy()
+    first, inverse = unique_rows(rows)
+    assert first.tolist() == list(range(n))[::-1]
+    assert inverse.tolist() == list(range(n))[::-1]
+
+
 @pytest.mark.parametrize("seed", range(5))
 def test_distinct_rows_groups_bit_identical_rows_by_first_appearance(seed):
     rng = np.random.default_rng(seed)
