@@ -1,18 +1,20 @@
 """Cost against mesh size: issue 16's linear-time targets, in both modes.
 
 One development mesh (igea, 134k vertices) refined to about 0.1M, 0.5M, 2M and 5M vertices
-(as it is; Loop-subdivided once; twice; twice and then the longest edges split at their
-midpoints until about 5M), made in a cache folder (a temporary one by default), never
-committed.  Every measurement runs in a fresh process (wall time of the whole operation,
-reading the file included, and the process's peak resident memory):
+(as it is; Loop-subdivided once; twice; decimated to 78k vertices and Loop-subdivided three
+times), made in a cache folder (a temporary one by default), never committed.  Every
+measurement runs in a fresh process (wall time of the whole operation, reading the file
+included, and the process's peak resident memory):
 
-- **floor**: reading the file, a cut to a disk and one harmonic solve.  Measured three ways:
+- **floor**: reading the file, a cut to a disk and one harmonic solve.  Measured four ways:
   libigl's (``igl.cut_to_disk`` on the mesh, ``igl.harmonic`` with four fixed vertices, its
   sparse Cholesky) up to 2M vertices; a breadth-first tree cut and one cotangent-Laplacian
   solve with the same four vertices fixed by meshwm's own solver (:mod:`meshwm.gim.solve`:
-  CHOLMOD's supernodal Cholesky up to 600k unknowns, multigrid above), the floor the ratios
-  are to; and the same with uniform weights (the graph Laplacian, the kind of solve the kept
-  mode's Tutte map makes: the *uniform floor*, a second ratio for the embeddings);
+  CHOLMOD's supernodal Cholesky up to 600k unknowns, multigrid above), the fastest, the
+  *floor*; the same by multigrid at every size, whose cost is linear in the mesh where the
+  factorisation's is not, the *linear floor* (the issue asks a super-linear piece of the
+  floor replaced by a linear one); and, for reference, the solve with uniform weights (the
+  graph Laplacian, what the kept mode's Tutte map solves).  Embeddings get both ratios;
 - **kept**: ``meshwm.embed(v, f, key=..., ident=..., distances=False)`` (the user's mesh kept),
   then reading the marked file and ``Decoder(...).extract_id``;
 - **grid N**: the same with ``grid=True`` at N = 256 and 1024.
@@ -54,43 +56,53 @@ RUNS = ("floor", "kept", "grid256", "grid1024")
 # -- the meshes ---------------------------------------------------------------------------
 
 
-def _loop(vertices, faces, *, threshold=None):  # type: ignore[no-untyped-def]
+def _loop(vertices, faces):  # type: ignore[no-untyped-def]
     import pymeshlab
 
     ms = pymeshlab.MeshSet()
     ms.add_mesh(pymeshlab.Mesh(vertices, faces))
-    if threshold is None:
-        ms.meshing_surface_subdivision_loop(iterations=1, threshold=pymeshlab.PercentageValue(0))
-    else:
-        ms.meshing_surface_subdivision_midpoint(
-            iterations=1, threshold=pymeshlab.PureValue(threshold)
-        )
+    ms.meshing_surface_subdivision_loop(iterations=1, threshold=pymeshlab.PercentageValue(0))
+    m = ms.current_mesh()
+    return m.vertex_matrix(), m.face_matrix()
+
+
+def _decimate(vertices, faces, count: int):  # type: ignore[no-untyped-def]
+    import pymeshlab
+
+    ms = pymeshlab.MeshSet()
+    ms.add_mesh(pymeshlab.Mesh(vertices, faces))
+    ms.meshing_decimation_quadric_edge_collapse(targetfacenum=2 * count, preservetopology=True)
     m = ms.current_mesh()
     return m.vertex_matrix(), m.face_matrix()
 
 
 def make_meshes(cache: Path, sizes: list[float]) -> dict[float, Path]:
-    """igea refined to about each size (millions of vertices), written to ``cache``."""
-    import numpy as np
+    """igea refined to about each size (millions of vertices), written to ``cache``.
 
+    Every size is Loop subdivision of igea, k times (each about 4× the vertices), k the fewest
+    with ``size / 4^k`` at most 1.2 times igea's 134,345 vertices: igea itself where that is at
+    least 0.65 times them (0.1M, 0.5M, 2M), else igea first decimated to ``size / 4^k`` (5M:
+    78,125 vertices, three steps).  So every mesh is of
+    one kind: until 2026-12-04 the 5M mesh was the 2M one with its longest edges split, whose
+    valence-4 vertices and needles multigrid coarsens worse (docs/bench/scale.md).
+    """
     from meshwm.mesh.io import read_mesh, write_mesh
 
     out: dict[float, Path] = {}
-    v, f = read_mesh(MESHES / "igea.ply")
-    levels = [(v, f)]
+    v0, f0 = read_mesh(MESHES / "igea.ply")
     for size in sorted(sizes):
-        path = cache / f"igea_{size:g}M.ply"
+        target = 1e6 * size
+        k = 0
+        while target / 4**k > 1.2 * len(v0):
+            k += 1
+        decimated = target / 4**k < 0.65 * len(v0)
+        path = cache / f"igea_{size:g}M{'_decimated' if decimated else ''}.ply"
         out[size] = path
         if path.exists():
             continue
-        while len(levels) < 3 and len(levels[-1][0]) < 0.8e6 * size:
-            levels.append(_loop(*levels[-1]))
-        v, f = min(levels, key=lambda m: abs(len(m[0]) - 1e6 * size))
-        if len(v) < 0.8e6 * size:  # split the longest edges: one new vertex per edge split
-            e = np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]])
-            length = np.sort(np.linalg.norm(v[e[:, 0]] - v[e[:, 1]], axis=1))[::-1]
-            missing = int(2 * (1e6 * size - len(v)))  # each undirected edge is listed twice
-            v, f = _loop(v, f, threshold=float(length[min(missing, len(length) - 1)]))
+        v, f = _decimate(v0, f0, round(target / 4**k)) if decimated else (v0, f0)
+        for _ in range(k):
+            v, f = _loop(v, f)
         write_mesh(path, v, f)
     return out
 
@@ -190,10 +202,12 @@ def _floor_pieces(v, f, *, igl_pieces: bool) -> dict:  # type: ignore[no-untyped
     t = time.perf_counter()
     solve_with_fixed(-igl.cotmatrix(v, f), fixed, values)
     out["harmonic_amg"] = time.perf_counter() - t
+    t = time.perf_counter()
+    solve_with_fixed(-igl.cotmatrix(v, f), fixed, values, solver="multigrid")
+    out["harmonic_mg"] = time.perf_counter() - t
     # The same solve with uniform weights (the graph Laplacian D - A, what the kept mode's
     # Tutte map solves): an M-matrix, where the cotangent weights of obtuse triangles are
-    # negative.  (Measured, it grows as fast: not the weights, the solve's cost per
-    # multigrid iteration; docs/bench/scale.md.)
+    # negative.  (Measured, it grows as fast: not the weights; docs/bench/scale.md.)
     t = time.perf_counter()
     a = sp.csr_matrix((np.ones(len(e)), (e[:, 0], e[:, 1])), shape=(n, n))
     a = ((a + a.T) > 0).astype(np.float64)
@@ -240,14 +254,14 @@ def measure(args: argparse.Namespace, cache: Path, out: Path) -> None:
 
     meshes = make_meshes(cache, args.sizes)
     lines = [
-        "| mesh | vertices | run | embed s | × floor | × uniform floor | embed peak GB "
+        "| mesh | vertices | run | embed s | × floor | × linear floor | embed peak GB "
         "| extract s | × floor | extract peak GB | reads |",
         "|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---|",
     ]
     floors = [
-        "| vertices | read s | BFS cut s | harmonic s | floor s | uniform harmonic s "
-        "| uniform floor s | peak GB | igl cut_to_disk s | igl harmonic s |",
-        "|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
+        "| vertices | read s | BFS cut s | harmonic s | floor s | multigrid harmonic s "
+        "| linear floor s | uniform harmonic s | peak GB | igl cut_to_disk s | igl harmonic s |",
+        "|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
     ]
     series: dict[str, list[tuple[int, float]]] = {}
     for size in sorted(args.sizes):
@@ -272,17 +286,17 @@ def measure(args: argparse.Namespace, cache: Path, out: Path) -> None:
         fl = results["floor"]
         parts = [_median(fl, k) for k in ("read", "cut_bfs", "harmonic_amg")]
         floor = sum(parts) if all(p is not None for p in parts) else None  # type: ignore[misc]
-        uniform = _median(fl, "harmonic_uniform")
-        u_floor = floor - parts[2] + uniform if floor and uniform else None  # type: ignore[operator]
+        multigrid = _median(fl, "harmonic_mg")
+        l_floor = floor - parts[2] + multigrid if floor and multigrid else None  # type: ignore[operator]
         floors.append(
             f"| {n:,} | {_fmt(parts[0], 2)} | {_fmt(parts[1], 2)} | {_fmt(parts[2], 2)} "
-            f"| {_fmt(floor, 2)} | {_fmt(uniform, 2)} | {_fmt(u_floor, 2)} "
-            f"| {_fmt(_median(fl, 'peak_gb'), 2)} "
+            f"| {_fmt(floor, 2)} | {_fmt(multigrid, 2)} | {_fmt(l_floor, 2)} "
+            f"| {_fmt(_median(fl, 'harmonic_uniform'), 2)} | {_fmt(_median(fl, 'peak_gb'), 2)} "
             f"| {_fmt((igl_floor or {}).get('cut_igl'), 2)} "
             f"| {_fmt((igl_floor or {}).get('harmonic_igl'), 2)} |"
         )
         series.setdefault("floor", []).append((n, floor or 0.0))
-        series.setdefault("uniform floor", []).append((n, u_floor or 0.0))
+        series.setdefault("linear floor", []).append((n, l_floor or 0.0))
         for run in RUNS[1:]:
             if run not in args.runs:
                 continue
@@ -297,7 +311,7 @@ def measure(args: argparse.Namespace, cache: Path, out: Path) -> None:
             lines.append(
                 f"| igea {size:g}M | {n:,} | {run} | {_fmt(e_s)} "
                 f"| {_fmt(e_s / floor if e_s and floor else None, 2)} "
-                f"| {_fmt(e_s / u_floor if e_s and u_floor else None, 2)} "
+                f"| {_fmt(e_s / l_floor if e_s and l_floor else None, 2)} "
                 f"| {_fmt(_median(emb, 'peak_gb'), 2)} | {_fmt(x_s)} "
                 f"| {_fmt(x_s / floor if x_s and floor else None, 2)} "
                 f"| {_fmt(_median(ext, 'peak_gb'), 2)} | {reads}{' ' + note if note else ''} |"

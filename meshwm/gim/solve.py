@@ -149,6 +149,7 @@ def solve_with_fixed(
     *,
     guess: NDArray[np.float64] | None = None,
     tol: float = TOLERANCE,
+    solver: str = "auto",
 ) -> NDArray[np.float64]:
     """Minimise ``½ xᵀQx`` with ``x[fixed] = values``: ``Q_ff x_f = -Q_fk values``.
 
@@ -162,6 +163,10 @@ def solve_with_fixed(
         A start for the iterative solve (large systems only; e.g. the previous map).
     tol : float, optional
         The relative residual of the iterative solve (large systems only).
+    solver : {"auto", "multigrid"}, optional
+        "auto": the direct factorisation up to :data:`DIRECT_LIMIT` free unknowns, multigrid
+        above; "multigrid": multigrid at every size (its cost is linear in the mesh; the
+        direct one is faster below the limit, `scripts/bench_scale.py` measures both).
 
     Returns
     -------
@@ -173,6 +178,8 @@ def solve_with_fixed(
     >>> solve_with_fixed(q, np.array([0, 2]), np.array([[0.0], [1.0]])).ravel().round(12).tolist()
     [0.0, 0.5, 1.0]
     """
+    if solver not in ("auto", "multigrid"):
+        raise ValueError(f"solver must be 'auto' or 'multigrid', got {solver!r}")
     n = quadratic.shape[0]
     fixed = np.asarray(fixed, dtype=np.int64)
     values = np.asarray(values, dtype=np.float64)
@@ -187,7 +194,7 @@ def solve_with_fixed(
     x[fixed] = values
     if len(index) == 0:
         return x
-    if len(index) <= DIRECT_LIMIT:
+    if solver == "auto" and len(index) <= DIRECT_LIMIT:
         try:
             x[index] = _Cholesky(q_free[:, index]).solve(rhs)
             return x

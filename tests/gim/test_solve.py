@@ -63,3 +63,18 @@ def test_a_pattern_factored_again_reuses_its_ordering_and_gives_the_same_bits(sp
         np.testing.assert_array_equal(again, fresh)
         np.testing.assert_allclose(matrix @ again, rhs, atol=1e-9)
     assert not np.array_equal(first, again)
+
+
+def test_solve_with_fixed_by_multigrid_at_any_size_agrees_with_the_direct_solve(spot_mesh):
+    import igl
+
+    v, f = spot_mesh
+    q = -igl.cotmatrix(v, f)
+    fixed = np.array([0, 100, 200, 300])
+    values = np.eye(4)[:, :2]
+    direct = solve.solve_with_fixed(q, fixed, values)
+    multigrid = solve.solve_with_fixed(q, fixed, values, solver="multigrid")
+    np.testing.assert_allclose(multigrid, direct, rtol=0, atol=1e-7)
+    assert not np.array_equal(multigrid, direct)  # another solver, not the direct one again
+    with pytest.raises(ValueError, match="solver"):
+        solve.solve_with_fixed(q, fixed, values, solver="cholesky")
