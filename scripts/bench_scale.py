@@ -56,24 +56,34 @@ RUNS = ("floor", "kept", "grid256", "grid1024")
 # -- the meshes ---------------------------------------------------------------------------
 
 
+def _meshlab(vertices, faces, name: str, **options):  # type: ignore[no-untyped-def]
+    """One MeshLab filter applied to a mesh: its new vertices and faces."""
+    import pymeshlab
+
+    ms = pymeshlab.MeshSet()
+    ms.add_mesh(pymeshlab.Mesh(vertices, faces))
+    getattr(ms, name)(**options)
+    m = ms.current_mesh()
+    return m.vertex_matrix(), m.face_matrix()
+
+
 def _loop(vertices, faces):  # type: ignore[no-untyped-def]
     import pymeshlab
 
-    ms = pymeshlab.MeshSet()
-    ms.add_mesh(pymeshlab.Mesh(vertices, faces))
-    ms.meshing_surface_subdivision_loop(iterations=1, threshold=pymeshlab.PercentageValue(0))
-    m = ms.current_mesh()
-    return m.vertex_matrix(), m.face_matrix()
+    threshold = pymeshlab.PercentageValue(0)
+    return _meshlab(
+        vertices, faces, "meshing_surface_subdivision_loop", iterations=1, threshold=threshold
+    )
 
 
 def _decimate(vertices, faces, count: int):  # type: ignore[no-untyped-def]
-    import pymeshlab
-
-    ms = pymeshlab.MeshSet()
-    ms.add_mesh(pymeshlab.Mesh(vertices, faces))
-    ms.meshing_decimation_quadric_edge_collapse(targetfacenum=2 * count, preservetopology=True)
-    m = ms.current_mesh()
-    return m.vertex_matrix(), m.face_matrix()
+    return _meshlab(
+        vertices,
+        faces,
+        "meshing_decimation_quadric_edge_collapse",
+        targetfacenum=2 * count,
+        preservetopology=True,
+    )
 
 
 def make_meshes(cache: Path, sizes: list[float]) -> dict[float, Path]:
@@ -82,9 +92,9 @@ def make_meshes(cache: Path, sizes: list[float]) -> dict[float, Path]:
     Every size is Loop subdivision of igea, k times (each about 4× the vertices), k the fewest
     with ``size / 4^k`` at most 1.2 times igea's 134,345 vertices: igea itself where that is at
     least 0.65 times them (0.1M, 0.5M, 2M), else igea first decimated to ``size / 4^k`` (5M:
-    78,125 vertices, three steps).  So every mesh is of
-    one kind: until 2026-12-04 the 5M mesh was the 2M one with its longest edges split, whose
-    valence-4 vertices and needles multigrid coarsens worse (docs/bench/scale.md).
+    78,125 vertices, three steps).  So every mesh is of one kind: until 2026-12-04 the 5M
+    mesh was the 2M one with its longest edges split, whose valence-4 vertices and needles
+    multigrid coarsens worse (docs/bench/scale.md).
     """
     from meshwm.mesh.io import read_mesh, write_mesh
 
