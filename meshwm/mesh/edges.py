@@ -47,6 +47,7 @@ def _sorted_groups(
     new = np.empty(len(key), dtype=bool)
     new[:1] = True
     np.not_equal(s[1:], s[:-1], out=new[1:])
+    del s
     group = np.cumsum(new) - 1
     inverse = np.empty(len(key), dtype=np.int64)
     inverse[order] = group
@@ -243,10 +244,14 @@ def _unique_edges(
     a = faces.ravel()
     b = np.roll(faces, -1, axis=1).ravel()
     low, high = np.minimum(a, b), np.maximum(a, b)
-    key = low * (int(high.max()) + 1)
+    del b
+    base = int(high.max()) + 1
+    key = low * base
     key += high
+    del low, high  # the key holds both (at 5M vertices each is 0.24 GB)
     first, inverse, order = _sorted_groups(key)
-    return np.stack([low[first], high[first]], axis=1), inverse, order
+    edges = key[first]
+    return np.stack([edges // base, edges % base], axis=1), inverse, order
 
 
 def edge_topology_counts(faces: NDArray[np.int64]) -> tuple[int, int, int]:

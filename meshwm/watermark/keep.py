@@ -385,7 +385,9 @@ def _mark_at(
         found = profile.decode(prepared, len(bits), key=key)
         return float(np.mean(found.bits != bits)), float(np.mean(np.abs(found.confidence)))
 
-    def run(opts: Any, *, until_read: bool = False) -> tuple[NDArray[np.float64], dict]:
+    def run(
+        opts: Any, transfer: Transfer, *, until_read: bool = False
+    ) -> tuple[NDArray[np.float64], dict]:
         d = np.zeros_like(positions)
         rep: dict[str, Any] = {}
         for k in range(1 + KEEP_PASSES + (_EXTRA_PASSES if until_read else 0)):
@@ -402,7 +404,7 @@ def _mark_at(
     if step is not None and target is not None and hasattr(options, "tangential_step"):
         for _ in range(_CALIBRATION_ROUNDS):
             opts = dataclasses.replace(options, tangential_step=float(step))
-            d, rep = run(opts)
+            d, rep = run(opts, transfer)
             measured = normal_rms(positions, faces, d)
             if measured <= 0:
                 break
@@ -410,7 +412,10 @@ def _mark_at(
         opts = dataclasses.replace(options, tangential_step=float(step))
     else:
         opts = options
-    d, rep = run(opts, until_read=True)
+    d, rep = run(opts, transfer, until_read=True)
+    # The transfer's solver (at 5M vertices its multigrid hierarchy is over 1 GB) is not
+    # needed by the radial carrier, the start check or the read-back after them.
+    del transfer
     radial_faces = surface.inverse[faces_in]
     d, radial = _carry_radial(positions, radial_faces, faces, d, bits, key=key)
     # The start last: the radial carrier moves vertices along their distance from the centre,
