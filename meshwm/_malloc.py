@@ -9,6 +9,16 @@ the files ``scripts/bench_verify.py`` makes: 48 ms per file, 38 ms tuned).  Rais
 thresholds keeps the freed memory in the process for the next array: about 450 faults per
 file, the same peak memory (0.3 GB).
 
+A large mesh's arrays are larger than any threshold (at 5M vertices each per-corner array is
+0.24 GB), so they were still mapped and unmapped one by one, every page faulted in and zeroed
+by the kernel again: the kept embedding of igea Loop-subdivided to 2.1M vertices spent 32 s of
+its 123 s in the kernel (20 s of 108 s with a 64 MB mmap threshold).  A command-line run (one
+command, then exit) maps no allocation on its own and never trims its heap: 2.1M 91 s (5 s in
+the kernel), 5M 361 s → 250 s, peak memory within 0.3 GB of the defaults' (5M: 7.34 GiB
+against 7.07; 2026-12-04, ``embed`` timed in one process); the processes of ``verify
+--jobs``, forked from it, inherit that.  A Dask worker, which lives on after the files it
+checks, keeps the thresholds, so one huge file's memory does not stay with it.
+
 Only the processes meshwm runs itself call this (the command line, and the workers of
 :mod:`meshwm.apps.batch`, Dask workers included, whose nanny sets ``MALLOC_TRIM_THRESHOLD_`` to
 64 KiB by default); importing meshwm changes nothing.  Elsewhere than glibc it does nothing.
@@ -23,17 +33,30 @@ import sys
 __all__ = ["keep_freed_memory"]
 
 _M_TRIM_THRESHOLD = -1
+_M_MMAP_MAX = -4
 _M_MMAP_THRESHOLD = -3
-#: Arrays up to this size come from the heap rather than their own mapping.
+#: Arrays up to this size come from the heap rather than their own mapping (a worker).
 MMAP_THRESHOLD = 64 << 20
-#: Free memory at the top of the heap is returned to the system beyond this.
+#: Free memory at the top of the heap is returned to the system beyond this (a worker).
 TRIM_THRESHOLD = 256 << 20
+#: mallopt's largest value: a process that keeps its memory until it exits never trims.
+_NEVER = 2**31 - 1
 
 _done = False
 
 
-def keep_freed_memory() -> bool:
-    """Raise glibc's mmap and trim thresholds for this process, once; True if they were set."""
+def keep_freed_memory(*, until_exit: bool = False) -> bool:
+    """Keep freed memory in this process for reuse, once; True if glibc took the settings.
+
+    Parameters
+    ----------
+    until_exit : bool, default False
+        False (a worker that checks file after file): glibc's mmap threshold raised to
+        :data:`MMAP_THRESHOLD` and its trim threshold to :data:`TRIM_THRESHOLD`, so arrays
+        larger than that still go back to the system when freed.  True (one command on one
+        mesh, then exit): no allocation is mapped on its own and the heap is never trimmed,
+        so even a 5M-vertex mesh's arrays reuse the pages of the last ones.
+    """
     global _done
     if _done:
         return True
@@ -45,7 +68,11 @@ def keep_freed_memory() -> bool:
     except (OSError, AttributeError):  # not glibc (musl has no mallopt)
         return False
     mallopt.argtypes, mallopt.restype = [ctypes.c_int, ctypes.c_int], ctypes.c_int
-    ok = mallopt(_M_MMAP_THRESHOLD, MMAP_THRESHOLD) == 1
-    ok = mallopt(_M_TRIM_THRESHOLD, TRIM_THRESHOLD) == 1 and ok
+    if until_exit:
+        ok = mallopt(_M_MMAP_MAX, 0) == 1
+        ok = mallopt(_M_TRIM_THRESHOLD, _NEVER) == 1 and ok
+    else:
+        ok = mallopt(_M_MMAP_THRESHOLD, MMAP_THRESHOLD) == 1
+        ok = mallopt(_M_TRIM_THRESHOLD, TRIM_THRESHOLD) == 1 and ok
     _done = ok
     return ok

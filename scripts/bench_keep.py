@@ -90,6 +90,10 @@ def _child(what: str, path: Path, out: Path) -> None:
 
 def main() -> None:
     if len(sys.argv) == 5 and sys.argv[1] == "--child":
+        # The memory settings `meshwm`'s command line makes for itself (meshwm/_malloc.py).
+        from meshwm._malloc import keep_freed_memory
+
+        keep_freed_memory(until_exit=True)
         _child(sys.argv[2], Path(sys.argv[3]), Path(sys.argv[4]))
         return
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])

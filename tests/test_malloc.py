@@ -23,19 +23,19 @@ class Info(ctypes.Structure):
         "fordblks", "keepcost")]
 libc = ctypes.CDLL("libc.so.6")
 libc.mallinfo2.restype = Info
-if sys.argv[1] == "tuned":
+if sys.argv[1] != "plain":
     from meshwm._malloc import keep_freed_memory
-    assert keep_freed_memory()
-a = np.ones(1 << 20)
+    assert keep_freed_memory(until_exit=sys.argv[1] == "until_exit")
+a = np.ones(int(sys.argv[2]))
 mapped = libc.mallinfo2().hblkhd
 del a
 print(mapped, libc.mallinfo2().fordblks)
 """
 
 
-def _probe(mode: str) -> tuple[int, int]:
+def _probe(mode: str, size: int = 1 << 20) -> tuple[int, int]:
     out = subprocess.run(
-        [sys.executable, "-c", _PROBE, mode], capture_output=True, text=True, check=True
+        [sys.executable, "-c", _PROBE, mode, str(size)], capture_output=True, text=True, check=True
     )
     mapped, free = out.stdout.split()
     return int(mapped), int(free)
@@ -53,6 +53,23 @@ def test_big_arrays_come_from_the_heap_and_stay_for_reuse():
     eight = 8 << 20
     assert plain[0] >= eight and plain[1] < eight
     assert tuned[0] < eight and tuned[1] >= eight
+
+
+@glibc
+def test_a_one_command_process_keeps_even_the_largest_arrays():
+    """A 128 MB array (a 5M-vertex mesh's per-corner arrays are 240 MB): a worker's thresholds
+    still map it on its own and give it back; a process that keeps its memory until it exits
+    takes it from the heap and keeps it for the next one."""
+    try:
+        plain = _probe("plain", 16 << 20)
+    except subprocess.CalledProcessError:
+        pytest.skip("no mallinfo2 (glibc < 2.33)")
+    size = 128 << 20
+    worker = _probe("worker", 16 << 20)
+    until_exit = _probe("until_exit", 16 << 20)
+    assert plain[0] >= size and plain[1] < size
+    assert worker[0] >= size and worker[1] < size
+    assert until_exit[0] < size and until_exit[1] >= size
 
 
 @glibc

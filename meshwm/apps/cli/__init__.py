@@ -140,7 +140,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         0 on success (for ``verify``: present), 1 for ``verify``: absent, 2 on any error (one
         line on stderr).
     """
-    keep_freed_memory()  # big temporaries reuse memory instead of faulting pages in
+    keep_freed_memory(until_exit=True)  # temporaries reuse memory, not fresh zeroed pages
     words = list(sys.argv[1:] if argv is None else argv)
     parser = build_parser(_named_command(words))
     try:
