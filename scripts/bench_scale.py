@@ -444,11 +444,11 @@ def _read_all(folder: str, jobs: int) -> float:
 
 def main() -> None:
     if len(sys.argv) > 1 and sys.argv[1] == "--child":
-        # The memory settings `meshwm`'s command line makes for itself (meshwm/_malloc.py), for
-        # the floor and the embeddings alike: the product is what is timed.
+        # The memory settings `meshwm`'s command line makes for itself (meshwm/_malloc.py): a
+        # grid embedding a worker's thresholds, the rest (the floor too) all memory kept.
         from meshwm._malloc import keep_freed_memory
 
-        keep_freed_memory(until_exit=True)
+        keep_freed_memory(until_exit=not sys.argv[2].startswith("embed_grid"))
         print(json.dumps(_child(*sys.argv[2:5])))
         return
     if len(sys.argv) > 1 and sys.argv[1] == "--read-all":

@@ -140,7 +140,6 @@ def main(argv: Sequence[str] | None = None) -> int:
         0 on success (for ``verify``: present), 1 for ``verify``: absent, 2 on any error (one
         line on stderr).
     """
-    keep_freed_memory(until_exit=True)  # temporaries reuse memory, not fresh zeroed pages
     words = list(sys.argv[1:] if argv is None else argv)
     parser = build_parser(_named_command(words))
     try:
@@ -148,6 +147,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     except _UsageError as exc:
         print(f"meshwm: error: {exc}", file=sys.stderr)
         return EXIT_ERROR
+    # Temporaries reuse the memory of the last ones, not fresh zeroed pages (meshwm/_malloc.py):
+    # a command keeps all its memory until it exits, except one that writes a geometry image's
+    # grid, whose heap that left fragmented past the 8 GB budget at 5M vertices (8.30 GiB
+    # against 7.4 with a worker's thresholds, which it keeps).
+    grid = _named_command(words) == ["remesh"] or bool(getattr(args, "grid", False))
+    keep_freed_memory(until_exit=not grid)
     try:
         code = int(args.run(args))
         sys.stdout.flush()  # a closed pipe shows here, not in the interpreter's last flush
