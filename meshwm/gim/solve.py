@@ -194,14 +194,16 @@ def solve_with_fixed(
     x[fixed] = values
     if len(index) == 0:
         return x
+    system = q_free[:, index]
+    del q, q_free  # at 5M vertices each copy is 0.4 GB, and the grid mode's peak is here
     if solver == "auto" and len(index) <= DIRECT_LIMIT:
         try:
-            x[index] = _Cholesky(q_free[:, index]).solve(rhs)
+            x[index] = _Cholesky(system).solve(rhs)
             return x
         except ArithmeticError:  # semi-definite (a free vertex on no edge): as libigl did
             return _igl_with_fixed(quadratic, fixed, values)
     start = None if guess is None else np.asarray(guess, dtype=np.float64)[index]
-    x[index] = _amg_solve(_hierarchy(q_free[:, index]), rhs, guess=start, tol=tol, maxiter=_MAXITER)
+    x[index] = _amg_solve(_hierarchy(system), rhs, guess=start, tol=tol, maxiter=_MAXITER)
     return x
 
 
