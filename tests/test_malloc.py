@@ -60,13 +60,14 @@ def test_a_one_command_process_keeps_even_the_largest_arrays():
     """A 128 MB array (a 5M-vertex mesh's per-corner arrays are 240 MB): a worker's thresholds
     still map it on its own and give it back; a process that keeps its memory until it exits
     takes it from the heap and keeps it for the next one."""
+    size = 128 << 20
+    items = size // 8  # float64
     try:
-        plain = _probe("plain", 16 << 20)
+        plain = _probe("plain", items)
     except subprocess.CalledProcessError:
         pytest.skip("no mallinfo2 (glibc < 2.33)")
-    size = 128 << 20
-    worker = _probe("worker", 16 << 20)
-    until_exit = _probe("until_exit", 16 << 20)
+    worker = _probe("worker", items)
+    until_exit = _probe("until_exit", items)
     assert plain[0] >= size and plain[1] < size
     assert worker[0] >= size and worker[1] < size
     assert until_exit[0] < size and until_exit[1] >= size

@@ -141,7 +141,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         line on stderr).
     """
     words = list(sys.argv[1:] if argv is None else argv)
-    parser = build_parser(_named_command(words))
+    command = _named_command(words)
+    parser = build_parser(command)
     try:
         args = parser.parse_args(words)
     except _UsageError as exc:
@@ -149,9 +150,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         return EXIT_ERROR
     # Temporaries reuse the memory of the last ones, not fresh zeroed pages (meshwm/_malloc.py):
     # a command keeps all its memory until it exits, except one that writes a geometry image's
-    # grid, whose heap that left fragmented past the 8 GB budget at 5M vertices (8.30 GiB
-    # against 7.4 with a worker's thresholds, which it keeps).
-    grid = _named_command(words) == ["remesh"] or bool(getattr(args, "grid", False))
+    # grid: its heap, never trimmed, went past the 8 GB budget at 5M vertices (8.30 GiB), so it
+    # keeps a worker's thresholds.
+    grid = command == ["remesh"] or bool(getattr(args, "grid", False))
     keep_freed_memory(until_exit=not grid)
     try:
         code = int(args.run(args))
