@@ -78,3 +78,29 @@ def test_solve_with_fixed_by_multigrid_at_any_size_agrees_with_the_direct_solve(
     assert not np.array_equal(multigrid, direct)  # another solver, not the direct one again
     with pytest.raises(ValueError, match="solver"):
         solve.solve_with_fixed(q, fixed, values, solver="cholesky")
+
+
+@pytest.mark.parametrize(("tol", "maxiter"), [(1e-10, 400), (1e-6, 3), (1e-300, 20)])
+@pytest.mark.parametrize("start", [False, True])
+def test_conjugate_gradients_give_pyamgs_solution_bit_for_bit(spot_mesh, tol, maxiter, start):
+    import scipy.sparse as sp
+
+    from meshwm.gim.transfer import uniform_laplacian
+
+    v, f = spot_mesh
+    laplacian = uniform_laplacian(f, len(v))
+    matrix = sp.csr_matrix(laplacian.T @ laplacian + 1e-3 * sp.identity(len(v)))
+    rng = np.random.default_rng(7)
+    rhs = rng.normal(size=(len(v), 2))
+    guess = rng.normal(size=(len(v), 2)) if start else None
+    hierarchy = solve._hierarchy(matrix)
+    assert len(hierarchy.levels) > 2  # the V-cycle recurses
+    got = solve._amg_solve(hierarchy, rhs, guess=guess, tol=tol, maxiter=maxiter)
+    for c in range(2):
+        x0 = None if guess is None else np.ascontiguousarray(guess[:, c])
+        b = np.ascontiguousarray(rhs[:, c])
+        want = hierarchy.solve(b, x0=x0, tol=tol, maxiter=maxiter, accel="cg")
+        np.testing.assert_array_equal(got[:, c], want)
+    if maxiter == 400:
+        residual = np.linalg.norm(matrix @ got - rhs, axis=0) / np.linalg.norm(rhs, axis=0)
+        assert residual.max() < 1e-9
