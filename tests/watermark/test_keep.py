@@ -205,6 +205,26 @@ def test_vertex_distances_are_exact_on_a_mesh_of_very_uneven_edges():
 
 
 @pytest.mark.slow
+@pytest.mark.parametrize("shift", [0.0, 1e6])
+def test_gaps_are_the_trees_bounded_distances_bit_for_bit(shift):
+    """Only points near a query are asked, and each answer is the tree's own, at any limit."""
+    from scipy.spatial import cKDTree
+
+    from meshwm.watermark.keep import _gaps
+
+    rng = np.random.default_rng(5)
+    points = rng.normal(size=(20_000, 3)) * [1.0, 3.0, 0.01] + shift
+    for count in (0, 1, 7, 300):
+        query = points[rng.choice(len(points), count)] + rng.normal(size=(count, 3)) * 1e-3
+        for limit in (0.0, 1e-3, 0.05, 0.4, 50.0):
+            got = _gaps(points, query, limit)
+            if count == 0:
+                assert np.isinf(got).all()
+                continue
+            want = cKDTree(query).query(points, k=1, distance_upper_bound=limit)[0]
+            np.testing.assert_array_equal(got, want)
+
+
 def test_the_genus_8_plate_is_marked_within_the_hausdorff_cap():
     from meshwm.apps.bench.synthetic import make
 
