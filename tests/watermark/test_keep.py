@@ -205,6 +205,38 @@ def test_vertex_distances_are_exact_on_a_mesh_of_very_uneven_edges():
 
 
 @pytest.mark.slow
+def test_vertex_distances_find_a_long_face_whose_corners_are_all_far():
+    """A dense patch over a plane of two large triangles, moved through it: each patch
+    vertex's nearest point on the moved surface is on a large triangle (0.01 away, the patch
+    0.012), whose corners are all far away."""
+    import igl
+
+    from meshwm.watermark.keep import _vertex_distances
+
+    t = np.linspace(0.45, 0.55, 30)
+    xx, yy = np.meshgrid(t, t)
+    patch = np.stack([xx.ravel(), yy.ravel(), np.full(xx.size, 0.01)], axis=1)
+    quads = [
+        (r * 30 + c, r * 30 + c + 1, (r + 1) * 30 + c + 1, (r + 1) * 30 + c)
+        for r in range(29)
+        for c in range(29)
+    ]
+    tris = np.array([t for a, b, c, d in quads for t in ((a, b, c), (a, c, d))]) + 4
+    plane = np.array([[0.0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]])
+    v = np.concatenate([plane, patch])
+    f = np.concatenate([[[0, 1, 2], [0, 2, 3]], tris]).astype(np.int64)
+    d = np.zeros_like(v)
+    d[4:, 2] = -0.012
+    there = igl.point_mesh_squared_distance(v + d, v, f)[0]
+    back = igl.point_mesh_squared_distance(v, v + d, f)[0]
+    brute = np.sqrt(np.maximum(there, back))
+    got, diag = _vertex_distances(v, f, d, above=1e-3)
+    over = brute > 1e-3 * diag
+    assert over.sum() > 800
+    np.testing.assert_allclose(got[over], brute[over], rtol=1e-12)
+    assert got[4:].max() < 0.0101  # the plane, not the moved patch (0.012)
+
+
 @pytest.mark.parametrize("shift", [0.0, 1e6])
 def test_gaps_are_the_trees_bounded_distances_bit_for_bit(shift):
     """Only points near a query are asked, and each answer is the tree's own, at any limit."""
