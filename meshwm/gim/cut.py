@@ -72,24 +72,43 @@ def edge_graph(vertices: NDArray[np.float64], edges: NDArray[np.int64]) -> sp.cs
     return (g + g.T).tocsr()
 
 
+#: Faces at a time in :func:`area_centroid` (its temporaries were 2 GB at 10M faces).
+_CENTROID_CHUNK = 1 << 20
+
+
 def area_centroid(vertices: NDArray[np.float64], faces: NDArray[np.int64]) -> NDArray:
     """The surface's centroid: the mean of the face centroids weighted by face area.
 
     Column by column, with the operations of ``np.cross``, ``np.linalg.norm`` and ``mean`` in
-    their order (the same bits; 2.1M vertices: 0.3 s against 2.3 s over ``vertices[faces]``).
+    their order (the same bits; 2.1M vertices: 0.3 s against 2.3 s over ``vertices[faces]``),
+    :data:`_CENTROID_CHUNK` faces at a time: the weighted centroids' sum is NumPy's over the
+    rows of an (m, 3) array, one row after the other, which each chunk continues (the same
+    bits); the areas' pairwise sum is taken over all of them at the end.
     """
     v = np.asarray(vertices, dtype=np.float64)
-    corners = [np.ascontiguousarray(faces[:, k]) for k in range(3)]
+    faces = np.asarray(faces)
     columns = [np.ascontiguousarray(v[:, c]) for c in range(3)]
-    p = [[column[k] for k in corners] for column in columns]
-    e1 = [p[c][1] - p[c][0] for c in range(3)]
-    e2 = [p[c][2] - p[c][0] for c in range(3)]
-    cx = e1[1] * e2[2] - e1[2] * e2[1]
-    cy = e1[2] * e2[0] - e1[0] * e2[2]
-    cz = e1[0] * e2[1] - e1[1] * e2[0]
-    area = 0.5 * np.sqrt(cx * cx + cy * cy + cz * cz)
-    mean = np.stack([(p[c][0] + p[c][1] + p[c][2]) / 3 for c in range(3)], axis=1)
-    return (area[:, None] * mean).sum(axis=0) / area.sum()
+    area = np.empty(len(faces))
+    total: NDArray[np.float64] | None = None
+    for lo in range(0, len(faces), _CENTROID_CHUNK):
+        chunk = faces[lo : lo + _CENTROID_CHUNK]
+        corners = [np.ascontiguousarray(chunk[:, k]) for k in range(3)]
+        p = [[column[k] for k in corners] for column in columns]
+        e1 = [p[c][1] - p[c][0] for c in range(3)]
+        e2 = [p[c][2] - p[c][0] for c in range(3)]
+        cx = e1[1] * e2[2] - e1[2] * e2[1]
+        cy = e1[2] * e2[0] - e1[0] * e2[2]
+        cz = e1[0] * e2[1] - e1[1] * e2[0]
+        a = 0.5 * np.sqrt(cx * cx + cy * cy + cz * cz)
+        area[lo : lo + len(chunk)] = a
+        mean = np.stack([(p[c][0] + p[c][1] + p[c][2]) / 3 for c in range(3)], axis=1)
+        weighted = a[:, None] * mean
+        if total is not None:
+            weighted = np.concatenate([total[None], weighted])
+        total = np.add.reduce(weighted, axis=0)
+    if total is None:
+        total = (area[:, None] * np.zeros((0, 3))).sum(axis=0)
+    return total / area.sum()
 
 
 def argmax_stable(values: NDArray[np.float64], tiebreak: NDArray[np.float64]) -> int:

@@ -84,12 +84,16 @@ def test_extend_cut_adds_one_path_per_region_back_to_the_cut(ellipsoid):
         assert np.all(graph[path[:-1], path[1:]] > 0)  # a path along edges
 
 
-def test_area_centroid_gives_the_bits_of_the_plain_formula(spot_mesh):
-    """The centroid decides cuts that marks already embedded rely on: the column-wise form
-    must keep the plain formula's bits, under any similarity."""
+@pytest.mark.parametrize("chunk", [1 << 20, 1000, 1])
+def test_area_centroid_gives_the_bits_of_the_plain_formula(spot_mesh, chunk, monkeypatch):
+    """The centroid decides cuts that marks already embedded rely on: the column-wise form,
+    in chunks of faces or not, must keep the plain formula's bits, under any similarity."""
+    from meshwm.gim import cut
+
+    monkeypatch.setattr(cut, "_CENTROID_CHUNK", chunk)
     v0, f = spot_mesh
     rng = np.random.default_rng(3)
-    for _ in range(20):
+    for _ in range(20 if chunk > 1 else 2):
         v = v0 * rng.uniform(0.01, 100) + rng.uniform(-100, 100, size=3)
         tri = v[f]
         area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
