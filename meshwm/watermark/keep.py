@@ -267,12 +267,11 @@ def _gaps(
     """Each point's distance to the nearest query point where under ``limit``, else infinite:
     ``cKDTree(query).query(points, distance_upper_bound=limit)``'s distances, bit for bit.
 
-    Only the points in the grid cells around a query point's are asked (the grid spans the
+    Only the points in or next to a query point's grid cell are asked (the grid spans the
     query points' box grown by a cell): the cells are at least twice ``limit`` wide, so a point
     nearer than ``limit`` to a query point (nearer on every axis) lies in its cell or a
-    neighbouring one, whatever the rounding.  An embedding
-    asks a few hundred to a few thousand points here, and the tree's query of all 5M vertices
-    of a mesh, twice a call and five calls, took 20 s.
+    neighbouring one, whatever the rounding.  An embedding asks a few thousand query points
+    here; the tree's query of all 5M vertices of a mesh, twice a call and five calls, took 20 s.
     """
     gap = np.full(len(points), np.inf)
     if len(query) == 0 or len(points) == 0:
@@ -294,23 +293,6 @@ def _gaps(
         inside = np.flatnonzero(((at >= 0) & (at < dims)).all(axis=1))
         cell = at[inside].astype(np.int64)
         near = inside[cells[cell[:, 0], cell[:, 1], cell[:, 2]]]
-    if len(near):
-        gap[near] = cKDTree(query).query(points[near], k=1, distance_upper_bound=limit)[0]
-    return gap
-    lo = np.minimum(points.min(axis=0), query.min(axis=0))
-    extent = np.maximum(points.max(axis=0), query.max(axis=0)) - lo
-    size = max(2.0 * limit, float(extent.max()) / _GAP_CELLS)
-    if not np.isfinite(size) or size <= 0:
-        near = np.arange(len(points))
-    else:
-        dims = (extent // size).astype(np.int64) + 1
-        cells = np.zeros(tuple(dims.tolist()), dtype=bool)
-        at = np.floor((query - lo) / size).astype(np.int64)
-        for offset in np.stack(np.meshgrid(*[[-1, 0, 1]] * 3, indexing="ij"), -1).reshape(-1, 3):
-            index = np.clip(at + offset, 0, dims - 1)
-            cells[index[:, 0], index[:, 1], index[:, 2]] = True
-        at = np.clip(np.floor((points - lo) / size).astype(np.int64), 0, dims - 1)
-        near = np.flatnonzero(cells[at[:, 0], at[:, 1], at[:, 2]])
     if len(near):
         gap[near] = cKDTree(query).query(points[near], k=1, distance_upper_bound=limit)[0]
     return gap
