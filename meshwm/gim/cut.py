@@ -106,8 +106,8 @@ def area_centroid(vertices: NDArray[np.float64], faces: NDArray[np.int64]) -> ND
         if total is not None:
             weighted = np.concatenate([total[None], weighted])
         total = np.add.reduce(weighted, axis=0)
-    if total is None:
-        total = (area[:, None] * np.zeros((0, 3))).sum(axis=0)
+    if total is None:  # no faces: the empty sum
+        total = np.zeros(3)
     return total / area.sum()
 
 
