@@ -11,7 +11,10 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["face_cross", "row_norm"]
+__all__ = ["face_area", "face_cross", "row_norm"]
+
+#: Faces at a time in :func:`face_area` (its temporaries stay small on a large mesh).
+_CHUNK = 1 << 16
 
 Columns = tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]
 
@@ -60,3 +63,21 @@ def row_norm(columns: Columns) -> NDArray[np.float64]:
     """
     x, y, z = columns
     return np.sqrt(x * x + y * y + z * z)
+
+
+def face_area(vertices: NDArray[np.float64], faces: NDArray[np.int64]) -> NDArray[np.float64]:
+    """Each face's area, ``0.5 * np.linalg.norm(np.cross(...), axis=1)`` bit for bit.
+
+    A chunk of faces at a time, so its temporaries stay in the cache (10M faces: 0.7 GB of
+    them at once otherwise).
+
+    Examples
+    --------
+    >>> v = np.array([[0.0, 0, 0], [1, 0, 0], [0, 2, 0]])
+    >>> face_area(v, np.array([[0, 1, 2]])).tolist()
+    [1.0]
+    """
+    area = np.empty(len(faces))
+    for lo in range(0, len(faces), _CHUNK):
+        area[lo : lo + _CHUNK] = 0.5 * row_norm(face_cross(vertices, faces[lo : lo + _CHUNK]))
+    return area

@@ -28,3 +28,16 @@ def test_face_cross_on_a_mesh_with_int32_faces() -> None:
     v, f = np.asarray(mesh.vertices), np.asarray(mesh.faces, dtype=np.int32)
     want = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
     assert np.array_equal(np.stack(face_cross(v, f), axis=1), want)
+
+
+@pytest.mark.parametrize("chunk", [1 << 16, 7, 1])
+def test_face_area_is_half_the_cross_norm_bit_for_bit(monkeypatch, chunk: int) -> None:
+    import meshwm._vector as vector
+
+    monkeypatch.setattr(vector, "_CHUNK", chunk)
+    rng = np.random.default_rng(chunk)
+    v = rng.standard_normal((300, 3)) * 1e3
+    f = rng.integers(0, len(v), (1000, 3))
+    want = 0.5 * np.linalg.norm(np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]]), axis=1)
+    assert np.array_equal(vector.face_area(v, f), want)
+    assert vector.face_area(v, f[:0]).shape == (0,)

@@ -45,6 +45,7 @@ import scipy.sparse as sp
 from numpy.typing import NDArray
 
 from meshwm._validate import check_square_pow2
+from meshwm._vector import face_area
 from meshwm.errors import MeshError
 from meshwm.gim.boundary import Chains, Disk, boundary_chains, split_corners, unit_to_uv
 from meshwm.gim.cut import (
@@ -56,7 +57,7 @@ from meshwm.gim.cut import (
     initial_cut,
     path_edges,
 )
-from meshwm.gim.parameterize import flat_faces, grid_step, signed_uv_area, stretch_parameterize
+from meshwm.gim.parameterize import GridStep, flat_faces, signed_uv_area, stretch_parameterize
 from meshwm.gim.pose import canonical_pose
 from meshwm.gim.sample import sample_geometry_image
 from meshwm.mesh.clean import clean_mesh, unique_edges
@@ -130,12 +131,7 @@ def _surface(vertices: NDArray[np.float64], faces: NDArray[np.int64]) -> _Surfac
     # (The bounding-box diagonal would do, but it changes when the mesh is rotated.)
     diameter = 2.0 * float(radial.max())
     # Spacing of samples spread evenly over the surface (the unit square has area 1).
-    tri = vertices[faces]
-    uniform = float(
-        np.sqrt(
-            np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1).sum() / 2
-        )
-    )
+    uniform = float(np.sqrt(face_area(vertices, faces).sum()))
     return _Surface(
         vertices,
         faces,
@@ -153,17 +149,11 @@ def _local_stretch(
     uv: NDArray[np.float64],
     *,
     surface: _Surface,
-    disk: Disk,
-    flat: NDArray[np.bool_],
+    grid_step: GridStep,
     on_cut: NDArray[np.bool_],
 ) -> NDArray[np.float64]:
     """Grid step per input vertex relative to the diameter, 0 on the cut."""
-    s = (
-        grid_step(
-            disk.vertices, disk.faces, uv, disk.origin, len(surface.vertices), surface.graph, flat
-        )
-        / surface.diameter
-    )
+    s = grid_step(uv) / surface.diameter
     s[on_cut] = 0.0
     return s
 
@@ -227,8 +217,11 @@ def _cut_round(
     on_cut[disk.origin[disk.loop]] = True
     boundary_uv = unit_to_uv(disk.unit, n)
     flat = flat_faces(disk.faces, disk.loop, boundary_uv)
+    step_of = GridStep(
+        disk.vertices, disk.faces, disk.origin, len(surface.vertices), surface.graph, flat
+    )
     local_stretch = functools.partial(
-        _local_stretch, surface=surface, disk=disk, flat=flat, on_cut=on_cut
+        _local_stretch, surface=surface, grid_step=step_of, on_cut=on_cut
     )
     first_round_accept = functools.partial(
         _samples_evenly,

@@ -14,6 +14,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from meshwm.gim.boundary import Chains, unit_to_uv
+from meshwm.gim.sampling import near_grid_faces
 
 __all__ = ["sample_geometry_image"]
 
@@ -28,6 +29,39 @@ def _perimeter_grid_index(n: int) -> NDArray[np.int64]:
     return np.stack([i, j], axis=1)
 
 
+#: Grid points within this UV distance of a triangle are looked up among the triangles near
+#: the grid points only (:func:`meshwm.gim.sampling.near_grid_faces`).
+_NEAR = 1e-9
+
+
+def _closest_faces(
+    uv: NDArray[np.float64], faces: NDArray[np.int64], points: NDArray[np.float64], n: int
+) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
+    """For each (x, y, 0) point the closest UV triangle and the closest point on it.
+
+    The tree holds only the triangles whose box, widened by :data:`_NEAR`, holds a grid point
+    (10M triangles at 5M vertices, of which about 2N² can): a triangle left out is farther than
+    ``_NEAR`` from every grid point, so a point found within ``_NEAR`` has its closest triangle;
+    a point farther (a map that misses part of the square) asks a tree over them all.
+    """
+    uv3 = np.column_stack([uv, np.zeros(len(uv))])
+    near = near_grid_faces(uv, faces, n, tolerance=_NEAR)
+    if len(near) == 0:  # no triangle near any grid point: every point asks the whole tree
+        near = np.arange(len(faces))
+    tree = igl.AABB()
+    tree.init(uv3, faces[near])
+    sq_dist, face_id, closest = tree.squared_distance(uv3, faces[near], points)
+    face_id = near[np.asarray(face_id, dtype=np.int64)]
+    closest = np.array(closest)
+    far = np.flatnonzero(np.asarray(sq_dist) > _NEAR * _NEAR)
+    if len(far):
+        tree = igl.AABB()
+        tree.init(uv3, faces)
+        _, far_id, far_closest = tree.squared_distance(uv3, faces, points[far])
+        face_id[far], closest[far] = far_id, far_closest
+    return face_id, closest
+
+
 def _sample_interior(
     vertices: NDArray[np.float64],
     faces: NDArray[np.int64],
@@ -38,10 +72,7 @@ def _sample_interior(
     g = np.arange(n) / (n - 1)
     uu, vv = np.meshgrid(g, g)  # uu[i, j] = j / (N - 1), vv[i, j] = i / (N - 1)
     points = np.stack([uu.ravel(), vv.ravel(), np.zeros(n * n)], axis=1)
-    uv3 = np.column_stack([uv, np.zeros(len(uv))])
-    tree = igl.AABB()
-    tree.init(uv3, faces)
-    _, face_id, closest = tree.squared_distance(uv3, faces, points)
+    face_id, closest = _closest_faces(uv, faces, points, n)
     tri = uv[faces[face_id]]  # (P, 3, 2)
     p = closest[:, :2]
     v0 = tri[:, 1] - tri[:, 0]

@@ -20,7 +20,7 @@ from numpy.typing import NDArray
 
 from meshwm._validate import check_integer
 
-__all__ = ["Sampling", "grid_points", "sampling_matrix"]
+__all__ = ["Sampling", "grid_points", "near_grid_faces", "sampling_matrix"]
 
 
 class Sampling(NamedTuple):
@@ -119,15 +119,32 @@ def _on_longest_edge(tri: NDArray[np.float64], points: NDArray[np.float64]) -> N
     return bary
 
 
-#: Faces whose boxes are tested at once (:func:`_near_grid_points`): the corners' UVs and the
+#: Faces whose boxes are tested at once (:func:`near_grid_faces`): the corners' UVs and the
 #: boxes of all 10M faces of a 5M-vertex mesh at once took 1 GB.
 _BOX_CHUNK = 1_000_000
 
 
-def _near_grid_points(
-    u: NDArray[np.float64], f: NDArray[np.int64], size: int, tolerance: float
+def near_grid_faces(
+    u: NDArray[np.float64], f: NDArray[np.int64], size: int, *, tolerance: float
 ) -> NDArray[np.int64]:
-    """The faces whose UV box, widened by ``tolerance``, may hold a grid point, increasing."""
+    """The faces whose UV box, widened by ``tolerance``, may hold a grid point, increasing.
+
+    Parameters
+    ----------
+    u : (V, 2) float64 ndarray
+        The map of each vertex.
+    f : (F, 3) int64 ndarray
+        Triangles as indices into ``u``.
+    size : int
+        Grid size N: the points ``(j, i) / (N - 1)``.
+    tolerance : float
+        How far outside its box a grid point may lie and still count.
+
+    Returns
+    -------
+    (K,) int64 ndarray
+        Indices into ``f``; every face within ``tolerance`` of a grid point is among them.
+    """
     scale = size - 1
     slack = 1e-9  # grid coordinates are rounded quotients: keep every box that may touch one
     out = []
@@ -200,7 +217,7 @@ def sampling_matrix(
     # Only triangles whose box (widened by the tolerance) holds a grid point can cover one: a
     # fine mesh has far more triangles than the grid has points (igea at 537k vertices, N =
     # 128: 1.07M triangles, 16k points), and the tree over them all cost a second a sampling.
-    near = _near_grid_points(u, f, size, tolerance)
+    near = near_grid_faces(u, f, size, tolerance=tolerance)
     covered = np.zeros(size * size, dtype=bool)
     if len(near) == 0:
         return Sampling(

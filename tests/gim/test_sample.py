@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from numpy.testing import assert_allclose, assert_array_equal
 
 from meshwm.gim.boundary import boundary_chains, split_corners, unit_to_uv
@@ -27,3 +28,41 @@ def test_a_flat_square_samples_the_grid_points_and_welds_nothing(flat_square):
     assert gim.shape == (N, N, 3) and gim.dtype == np.float64
     assert_allclose(gim, expected, rtol=0, atol=1e-12)
     assert_array_equal(weld, np.arange(N * N).reshape(N, N))  # a disk has no seam
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_closest_faces_among_near_triangles_are_the_whole_trees(seed):
+    # Many small triangles, most far from every grid point; part of the square uncovered
+    # (its points ask the whole tree); the same closest points as a tree over all faces.
+    import igl
+    from scipy.spatial import Delaunay
+
+    from meshwm.gim import sample
+
+    rng = np.random.default_rng(seed)
+    low = 0.03 if seed % 2 else 0.0  # odd seeds: the first row and column uncovered
+    uv = rng.uniform(low, 1.0, size=(4000, 2))
+    uv[:4] = [[low, low], [1, low], [low, 1], [1, 1]]
+    faces = Delaunay(uv).simplices.astype(np.int64)
+    n = 33
+    g = np.arange(n) / (n - 1)
+    uu, vv = np.meshgrid(g, g)
+    points = np.stack([uu.ravel(), vv.ravel(), np.zeros(n * n)], axis=1)
+    face_id, closest = sample._closest_faces(uv, faces, points, n)
+    uv3 = np.column_stack([uv, np.zeros(len(uv))])
+    tree = igl.AABB()
+    tree.init(uv3, faces)
+    sq_all, id_all, closest_all = tree.squared_distance(uv3, faces, points)
+    assert_allclose(closest, closest_all, rtol=0, atol=1e-15)
+    # The face found holds the closest point (ties between neighbours may pick either).
+    d = np.linalg.norm(closest[:, :2] - points[:, :2], axis=1)
+    assert_allclose(d**2, sq_all, rtol=1e-12, atol=1e-24)
+    uvt = uv[faces[face_id]]
+    bary = np.linalg.solve(
+        np.stack([uvt[:, 1] - uvt[:, 0], uvt[:, 2] - uvt[:, 0]], axis=2),
+        (closest[:, :2] - uvt[:, 0])[:, :, None],
+    )[:, :, 0]
+    assert np.all(bary >= -1e-9) and np.all(bary.sum(axis=1) <= 1 + 1e-9)
+    assert (d > 1e-3).any() == bool(seed % 2)
+    same = np.asarray(id_all) == face_id
+    assert same.mean() > 0.9
