@@ -39,11 +39,23 @@ def face_cross(vertices: NDArray[np.float64], faces: NDArray[np.int64]) -> Colum
     [[0.0], [0.0], [2.0]]
     """
     v = np.asarray(vertices, dtype=np.float64)
-    f = np.asarray(faces)
+    return _cross(_columns(v), np.asarray(faces))
+
+
+def _columns(v: NDArray[np.float64]) -> Columns:
+    """The contiguous coordinate columns of ``v``."""
+    return (
+        np.ascontiguousarray(v[:, 0]),
+        np.ascontiguousarray(v[:, 1]),
+        np.ascontiguousarray(v[:, 2]),
+    )
+
+
+def _cross(columns: Columns, f: NDArray) -> Columns:
+    """:func:`face_cross` over the vertices' coordinate columns."""
     corners = [np.ascontiguousarray(f[:, k]) for k in range(3)]
     e1, e2 = [], []
-    for c in range(3):
-        column = np.ascontiguousarray(v[:, c])
+    for column in columns:
         first = column[corners[0]]
         e1.append(column[corners[1]] - first)
         e2.append(column[corners[2]] - first)
@@ -77,7 +89,9 @@ def face_area(vertices: NDArray[np.float64], faces: NDArray[np.int64]) -> NDArra
     >>> face_area(v, np.array([[0, 1, 2]])).tolist()
     [1.0]
     """
-    area = np.empty(len(faces))
-    for lo in range(0, len(faces), _CHUNK):
-        area[lo : lo + _CHUNK] = 0.5 * row_norm(face_cross(vertices, faces[lo : lo + _CHUNK]))
+    columns = _columns(np.asarray(vertices, dtype=np.float64))
+    f = np.asarray(faces)
+    area = np.empty(len(f))
+    for lo in range(0, len(f), _CHUNK):
+        area[lo : lo + _CHUNK] = 0.5 * row_norm(_cross(columns, f[lo : lo + _CHUNK]))
     return area
