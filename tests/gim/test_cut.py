@@ -99,3 +99,20 @@ def test_area_centroid_gives_the_bits_of_the_plain_formula(spot_mesh, chunk, mon
         area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
         plain = (area[:, None] * tri.mean(axis=1)).sum(axis=0) / area.sum()
         assert np.array_equal(area_centroid(v, f), plain)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_argmax_stable_is_the_last_of_a_lexsort(seed):
+    # Many exact ties in both keys, with NaN, inf and -0.0 among them: lexsort's last index.
+    from meshwm.gim.cut import argmax_stable
+
+    rng = np.random.default_rng(seed)
+    for _ in range(500):
+        n = int(rng.integers(1, 30))
+        keys = rng.integers(0, 4, (2, n)).astype(float)
+        r = rng.random((2, n))
+        keys[r < 0.05] = np.nan
+        keys[(r >= 0.05) & (r < 0.1)] = np.inf
+        keys[(r >= 0.1) & (r < 0.2)] = -0.0
+        values, tiebreak = keys
+        assert argmax_stable(values, tiebreak) == int(np.lexsort((tiebreak, values))[-1])
