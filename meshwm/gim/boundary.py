@@ -26,6 +26,7 @@ from numpy.typing import NDArray
 
 from meshwm.errors import MeshError
 from meshwm.gim.cut import argmax_stable
+from meshwm.mesh.edges import border_half_edges
 
 __all__ = ["Chains", "Disk", "boundary_chains", "split_corners", "unit_to_uv"]
 
@@ -79,6 +80,27 @@ class _Runs(NamedTuple):
 
 
 def _oriented_loop(faces_cut: NDArray[np.int64]) -> NDArray[np.int64]:
+    """The boundary loop in the faces' direction, from its smallest vertex index.
+
+    ``igl.boundary_loop``'s loop (the same start and direction) from the border half-edges
+    (10M faces: 1.5 s against 6.4 s); a border that is not one simple loop asks igl.
+    """
+    border = border_half_edges(faces_cut)
+    if len(border) >= 3 and len(np.unique(border[:, 0])) == len(border):
+        succ = np.full(int(faces_cut.max()) + 1, -1, dtype=np.int64)
+        succ[border[:, 0]] = border[:, 1]
+        start = int(border[:, 0].min())
+        nxt = succ.tolist()
+        loop = [start]
+        while nxt[loop[-1]] not in (start, -1) and len(loop) <= len(border):
+            loop.append(nxt[loop[-1]])
+        if len(loop) == len(border) and nxt[loop[-1]] == start:
+            return np.asarray(loop, dtype=np.int64)
+    return _igl_loop(faces_cut)
+
+
+def _igl_loop(faces_cut: NDArray[np.int64]) -> NDArray[np.int64]:
+    """``igl.boundary_loop``'s longest loop, turned to run in the faces' direction."""
     loop = np.asarray(igl.boundary_loop(faces_cut), dtype=np.int64)
     if len(loop) < 3:
         raise MeshError("could not cut the mesh open into a disk (no boundary loop)")

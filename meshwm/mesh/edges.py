@@ -15,6 +15,7 @@ from numpy.typing import NDArray
 from meshwm._digest import LastResult, arrays_key
 
 __all__ = [
+    "border_half_edges",
     "corner_edges_by_edge",
     "distinct_rows",
     "edge_topology_counts",
@@ -296,3 +297,64 @@ def uniform_smoothing_operator(
     degree = np.asarray(w.sum(axis=1)).ravel()
     inv = np.divide(1.0, degree, out=np.zeros(n_vertices), where=degree > 0)
     return (sp.diags(inv) @ w).tocsr(), degree > 0
+
+
+def border_half_edges(faces: NDArray[np.int64]) -> NDArray[np.int64]:
+    """The half-edges ``(a, b)`` of the faces whose reverse ``(b, a)`` is no half-edge.
+
+    On a consistently oriented manifold mesh these are its border edges, each in its face's
+    direction (interior on the left).
+
+    Parameters
+    ----------
+    faces : (m, 3) int64 ndarray
+
+    Returns
+    -------
+    (b, 2) int64 ndarray
+        In the order of ``faces[:, [0, 1]]``, then ``faces[:, [1, 2]]``, then
+        ``faces[:, [2, 0]]``, each in face order.
+
+    Examples
+    --------
+    >>> border_half_edges(np.array([[0, 1, 2], [2, 1, 3]])).tolist()
+    [[0, 1], [1, 3], [2, 0], [3, 2]]
+    """
+    f = np.asarray(faces, dtype=np.int64)
+    if len(f) == 0:
+        return np.zeros((0, 2), dtype=np.int64)
+    n = int(f.max()) + 1
+    # Only faces at a vertex whose outgoing and incoming neighbours differ can hold one: the
+    # ends of a half-edge (a, b) without (b, a) are such vertices.  Compared by two sums over
+    # the corners, of the indices and of a hash of them (exact in float64 up
+    # to 2^31 per term), which equal multisets give alike; a closed fan's are equal, so on a
+    # mesh with a border only its faces are searched (10M faces: 1.5 s against 4 s).  Every
+    # face with an edge at an odd vertex is searched, so that edge's reverse is found if any.
+    corner = f.ravel()
+    odd = np.zeros(n, dtype=bool)
+    for label in (np.arange(n, dtype=np.float64), _scramble(n)):
+        outgoing = np.bincount(corner, weights=label[np.roll(f, -1, axis=1)].ravel(), minlength=n)
+        incoming = np.bincount(corner, weights=label[np.roll(f, 1, axis=1)].ravel(), minlength=n)
+        odd |= outgoing != incoming
+    f = f[odd[f].any(axis=1)] if not odd.all() else f
+    half = np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]])
+    key = half[:, 0] * n + half[:, 1]
+    # Both keys sorted (stable: a mesh's keys come in runs, where timsort is fastest), so the
+    # search walks memory in order; the border's half-edges then back in face order (2.1M
+    # vertices: 3.5 s -> 0.9 s against searching for each key in face order; np.isin hashes,
+    # slower still).
+    order = np.argsort(key, kind="stable")
+    ordered = key[order]
+    reverse = np.sort(half[:, 1] * n + half[:, 0], kind="stable")
+    found = reverse[np.minimum(np.searchsorted(reverse, ordered), len(reverse) - 1)] == ordered
+    border = half[np.sort(order[~found])]
+    # A face's far edge (neither end odd) may have its reverse in a face left out: not border.
+    return border[odd[border[:, 0]] & odd[border[:, 1]]]
+
+
+def _scramble(n: int) -> NDArray[np.float64]:
+    """A fixed hash of 0 .. n-1 into [0, 2^31): SplitMix64's finaliser, its top 31 bits."""
+    z = np.arange(n, dtype=np.uint64) + np.uint64(0x9E3779B97F4A7C15)
+    z = (z ^ (z >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
+    z = (z ^ (z >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
+    return ((z ^ (z >> np.uint64(31))) >> np.uint64(33)).astype(np.float64)

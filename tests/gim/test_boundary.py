@@ -62,3 +62,41 @@ def test_a_disk_boundary_is_one_border_chain(flat_square):
     corners = np.isin(chains.unit, [0.0, N - 1, 2 * (N - 1), 3 * (N - 1)])
     found = {tuple(p) for p in v[chains.loop[corners], :2].tolist()}
     assert found == {(0.0, 0.0), (1.0, 0.0), (1.0, 1.0), (0.0, 1.0)}
+
+
+def test_the_boundary_loop_is_igls_on_cut_meshes(spot_mesh, kitten_mesh, plane_mesh, ellipsoid):
+    # The same start and direction as igl.boundary_loop, on closed, open and holed meshes cut
+    # open, with their faces and vertex numbers shuffled.
+    from meshwm.gim.boundary import _igl_loop, _oriented_loop
+    from meshwm.mesh.clean import clean_mesh
+
+    rng = np.random.default_rng(0)
+    for v, f in (spot_mesh, kitten_mesh, plane_mesh, ellipsoid):
+        c = clean_mesh(v, f)
+        edges, _ = unique_edges(c.faces)
+        closed = (
+            len(edges) * 2 == len(c.faces) * 3 and len(c.vertices) - len(edges) + len(c.faces) == 2
+        )
+        paths = initial_cut(
+            c.vertices, c.faces, edge_graph(c.vertices, edges), closed_genus0=closed
+        )
+        for trial in range(3):
+            perm = rng.permutation(len(c.vertices)) if trial else np.arange(len(c.vertices))
+            rank = np.empty_like(perm)
+            rank[perm] = np.arange(len(perm))
+            cv, cf = c.vertices[perm], rank[c.faces][rng.permutation(len(c.faces))]
+            cut = cut_open(cv, cf, [rank[p] for p in paths])
+            loop = _oriented_loop(cut.faces)
+            assert len(loop) >= 3
+            assert_array_equal(loop, _igl_loop(cut.faces))
+
+
+def test_a_border_of_two_loops_asks_igl_for_the_longest(flat_square):
+    # Two separate squares, the second larger: not one loop, so igl's longest loop.
+    from meshwm.gim.boundary import _oriented_loop
+
+    v, f = flat_square
+    f2 = np.concatenate([f, f + len(v)])
+    f2 = np.concatenate([f2, [[len(v) * 2, len(v) * 2 + 1, len(v) * 2 + 2]]])
+    loop = _oriented_loop(f2)
+    assert len(loop) == len(_oriented_loop(f))

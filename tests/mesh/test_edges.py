@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from meshwm.mesh.edges import _row_order, distinct_rows, unique_rows
+from meshwm.mesh.edges import _row_order, border_half_edges, distinct_rows, unique_rows
 
 
 def _table(rng: np.random.Generator) -> np.ndarray:
@@ -113,3 +113,22 @@ def test_distinct_rows_kept_for_the_same_bytes_only():
     moved[2, 0] = 3.0  # other bytes: computed again, not the kept groups
     assert distinct_rows(moved)[1].tolist() == [0, 1, 2]
     assert distinct_rows(v.copy())[1].tolist() == inverse.tolist() == [0, 1, 0]
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_border_half_edges_are_those_without_a_reverse(seed, plane_mesh):
+    # Random faces (repeated corners, both windings, fans) and a mesh with holes whose
+    # faces are partly flipped: only faces at a vertex with a border are searched, and
+    # nothing is lost or added.
+    rng = np.random.default_rng(seed)
+    if seed % 2:
+        f = rng.integers(0, 12 if seed % 4 == 1 else 300, (40 if seed % 4 == 1 else 900, 3))
+    else:
+        f = np.asarray(plane_mesh[1], dtype=np.int64)[rng.random(len(plane_mesh[1])) < 0.9]
+        flip = rng.random(len(f)) < 0.02
+        f[flip] = f[flip][:, ::-1]
+    half = np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]])
+    present = {tuple(h) for h in half.tolist()}
+    want = [h for h in half.tolist() if (h[1], h[0]) not in present]
+    assert border_half_edges(f).tolist() == want
+    assert border_half_edges(f[:0]).shape == (0, 2)
