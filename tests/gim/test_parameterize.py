@@ -132,3 +132,36 @@ def test_grid_step_of_many_maps_is_the_two_ring_area_ratio(ellipsoid):
         assert_array_equal(
             got, grid_step(disk.vertices, disk.faces, uv, disk.origin, len(v), graph, flat)
         )
+
+
+@pytest.mark.parametrize("chunk", [1 << 16, 7])
+def test_laplacian_pattern_is_igls_cotmatrix_bit_for_bit(monkeypatch, chunk, spot_mesh, ellipsoid):
+    # The off-diagonal entries of igl.cotmatrix, clamped: on meshes, on a triangulation of
+    # random points (obtuse triangles, slivers) with a face of zero area; where an edge has
+    # three faces or more, the same sums in another order.
+    import igl
+    from scipy.spatial import Delaunay
+
+    monkeypatch.setattr(parameterize, "_CHUNK", chunk)
+    rng = np.random.default_rng(chunk)
+    flat = rng.uniform(0.0, 1.0, (300, 2))
+    tri_f = Delaunay(flat).simplices.astype(np.int64)
+    tri_v = np.column_stack([flat, rng.normal(0.0, 0.3, 300)]) * 10.0 ** rng.uniform(-3, 3)
+    tri_v[tri_f[0, 2]] = 0.5 * (tri_v[tri_f[0, 0]] + tri_v[tri_f[0, 1]])
+    fan = rng.integers(0, 200, (600, 3))  # many edges of three faces or more
+    fan = fan[(fan[:, 0] != fan[:, 1]) & (fan[:, 1] != fan[:, 2]) & (fan[:, 0] != fan[:, 2])]
+    cases = (spot_mesh, ellipsoid, (tri_v, tri_f), (rng.standard_normal((200, 3)), fan))
+    for k, (v, f) in enumerate(cases):
+        f = np.asarray(f, dtype=np.int64)
+        lap = igl.cotmatrix(v, f).tocoo()
+        off = lap.row != lap.col
+        want_r, want_c, want_w = lap.row[off], lap.col[off], lap.data[off]
+        want_w = np.maximum(want_w, 1e-3 * np.median(np.abs(want_w)))
+        rows, cols, w = parameterize._laplacian_pattern(v, f)
+        a, b = np.lexsort((want_c, want_r)), np.lexsort((cols, rows))
+        assert_array_equal(rows[b], want_r[a])
+        assert_array_equal(cols[b], want_c[a])
+        if k < 3:
+            assert np.array_equal(w[b], want_w[a], equal_nan=True)
+        else:
+            assert_allclose(w[b], want_w[a], rtol=1e-12, atol=0)
