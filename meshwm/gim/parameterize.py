@@ -46,12 +46,12 @@ def _cotangents(vertices: NDArray[np.float64], faces: NDArray[np.int64]) -> NDAr
             chunk = faces[lo : lo + _CHUNK]
             f = [np.ascontiguousarray(chunk[:, k]) for k in range(3)]
             l2 = []
-            for a, b in ((1, 2), (2, 0), (0, 1)):
-                d = [column[f[a]] - column[f[b]] for column in columns]
+            for i, j in ((1, 2), (2, 0), (0, 1)):
+                d = [column[f[i]] - column[f[j]] for column in columns]
                 l2.append(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
             length = np.sort(np.sqrt(np.stack(l2, axis=1)), axis=1)
-            c, b, a = length[:, 0], length[:, 1], length[:, 2]  # a >= b >= c
-            arg = (a + (b + c)) * (c - (a - b)) * (c + (a - b)) * (a + (b - c))
+            lc, lb, la = length[:, 0], length[:, 1], length[:, 2]  # la >= lb >= lc
+            arg = (la + (lb + lc)) * (lc - (la - lb)) * (lc + (la - lb)) * (la + (lb - lc))
             double_area = 2.0 * 0.25 * np.sqrt(arg)
             double_area[np.isnan(double_area)] = 0.0
             rows = slice(lo, lo + len(chunk))
