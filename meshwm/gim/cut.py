@@ -193,10 +193,16 @@ def _cut_flags(faces: NDArray[np.int64], paths: list[NDArray[np.int64]]) -> NDAr
         return flags
     n = faces.max() + 1
     cut_keys = np.unique(ce[:, 0] * n + ce[:, 1])
+    # Only edges with both ends on the cut can be on it: the search is among those (5M
+    # vertices: 3.5 s over all 30M face edges).
+    on_path = np.zeros(n, dtype=bool)
+    on_path[ce.ravel()] = True
     for k in range(3):
         a, b = faces[:, k], faces[:, (k + 1) % 3]
+        near = np.flatnonzero(on_path[a] & on_path[b])
+        a, b = a[near], b[near]
         key = np.minimum(a, b) * n + np.maximum(a, b)
-        flags[:, k] = np.isin(key, cut_keys)
+        flags[near, k] = np.isin(key, cut_keys)
     return flags
 
 

@@ -116,3 +116,19 @@ def test_argmax_stable_is_the_last_of_a_lexsort(seed):
         keys[(r >= 0.1) & (r < 0.2)] = -0.0
         values, tiebreak = keys
         assert argmax_stable(values, tiebreak) == int(np.lexsort((tiebreak, values))[-1])
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_cut_flags_mark_the_face_edges_on_a_path(seed):
+    from meshwm.gim.cut import _cut_flags
+
+    rng = np.random.default_rng(seed)
+    faces = rng.integers(0, 60, (400, 3))
+    paths = [rng.integers(0, 60, int(rng.integers(2, 12))) for _ in range(3)]
+    on = {frozenset(e) for p in paths for e in zip(p[:-1].tolist(), p[1:].tolist(), strict=True)}
+    want = np.array(
+        [[frozenset((f[k], f[(k + 1) % 3])) in on for k in range(3)] for f in faces.tolist()]
+    )
+    got = _cut_flags(faces, paths)
+    assert got.any() and np.array_equal(got, want)
+    assert not _cut_flags(faces, []).any()
