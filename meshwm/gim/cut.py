@@ -28,6 +28,7 @@ from scipy.sparse.csgraph import connected_components, dijkstra
 
 from meshwm.errors import MeshError
 from meshwm.mesh.clean import edge_topology_counts
+from meshwm.mesh.edges import border_half_edges
 
 __all__ = [
     "CutMesh",
@@ -229,15 +230,31 @@ def initial_cut(
     return _disk_cut(vertices, faces)
 
 
+def _edge_count(faces: NDArray[np.int64]) -> int:
+    """The edges of a consistently oriented manifold mesh: each interior edge is two
+    half-edges, each border edge one (5M vertices: 1.5 s against 4.3 s for the unique edges).
+    Two faces running an edge the same way (a border half-edge twice, or an odd count): the
+    edges counted."""
+    border = border_half_edges(faces)
+    twice = 3 * len(faces) + len(border)
+    if twice % 2 or len(np.unique(border, axis=0)) != len(border):
+        return edge_topology_counts(faces)[0]
+    return twice // 2
+
+
 def cut_open(
     vertices: NDArray[np.float64], faces: NDArray[np.int64], paths: list[NDArray[np.int64]]
 ) -> CutMesh:
-    """Cut the mesh open along ``paths``; a :class:`~meshwm.errors.MeshError` unless a disk."""
+    """Cut the mesh open along ``paths``; a :class:`~meshwm.errors.MeshError` unless a disk.
+
+    ``faces``: a consistently oriented manifold mesh (:func:`meshwm.mesh.clean.clean_mesh`'s,
+    holes filled or not), whose edges its half-edges count.
+    """
     flags = _cut_flags(faces, paths)
     vc, fc, origin = igl.cut_mesh(vertices, faces, flags)
     fc = np.asarray(fc, dtype=np.int64)
     origin = np.asarray(origin, dtype=np.int64)
-    chi_cut = len(vc) - edge_topology_counts(fc)[0] + len(fc)
+    chi_cut = len(vc) - _edge_count(fc) + len(fc)
     if chi_cut != 1:
         raise MeshError(f"could not cut the mesh open into a disk (Euler characteristic {chi_cut})")
     return CutMesh(vc, fc, origin)

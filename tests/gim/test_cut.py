@@ -132,3 +132,23 @@ def test_cut_flags_mark_the_face_edges_on_a_path(seed):
     got = _cut_flags(faces, paths)
     assert got.any() and np.array_equal(got, want)
     assert not _cut_flags(faces, []).any()
+
+
+def test_edge_count_of_oriented_meshes_by_half_edges(spot_mesh, kitten_mesh, plane_mesh):
+    # Cleaned meshes, cut open or not, by half-edges; a face against its neighbours (its edges
+    # run twice the same way) counted: the unique edges' number each time.
+    from meshwm.gim.cut import _edge_count
+
+    for v, f in (spot_mesh, kitten_mesh, plane_mesh):
+        c = clean_mesh(v, f)
+        edges, _ = unique_edges(c.faces)
+        assert _edge_count(c.faces) == len(edges)
+        closed = 2 * len(edges) == 3 * len(c.faces)
+        genus0 = closed and len(c.vertices) - len(edges) + len(c.faces) == 2
+        graph = edge_graph(c.vertices, edges)
+        paths = initial_cut(c.vertices, c.faces, graph, closed_genus0=genus0)
+        cut = cut_open(c.vertices, c.faces, paths)
+        assert _edge_count(cut.faces) == edge_topology_counts(cut.faces)[0]
+        flipped = c.faces.copy()
+        flipped[0] = flipped[0, ::-1]
+        assert _edge_count(flipped) == edge_topology_counts(flipped)[0]
