@@ -335,7 +335,7 @@ def measure(args: argparse.Namespace, cache: Path, out: Path) -> None:
 def _write(out: Path, args: argparse.Namespace, floors, lines, series) -> None:  # type: ignore[no-untyped-def]
     load = os.getloadavg()
     slopes = ["| series | slope (log time / log vertices, first to last size) |", "|---|---:|"]
-    slopes += [f"| {k} | {_fmt(_slope(v), 2)} |" for k, v in series.items()]
+    slopes += [f"| {k} | {_fmt(_slope(v), 3)} |" for k, v in series.items()]
     text = "\n".join(
         [
             "# Cost against mesh size (issue 16)",
