@@ -26,7 +26,7 @@ from numpy.typing import NDArray
 
 from meshwm.errors import MeshError
 from meshwm.gim.cut import argmax_stable
-from meshwm.mesh.edges import border_half_edges
+from meshwm.mesh.edges import border_half_edges, border_loop
 
 __all__ = ["Chains", "Disk", "boundary_chains", "split_corners", "unit_to_uv"]
 
@@ -86,17 +86,8 @@ def _oriented_loop(faces_cut: NDArray[np.int64]) -> NDArray[np.int64]:
     (10M faces: 1.5 s against 6.4 s); a border that is not one simple loop asks igl.
     """
     border = border_half_edges(faces_cut)
-    if len(border) >= 3 and len(np.unique(border[:, 0])) == len(border):
-        succ = np.full(int(faces_cut.max()) + 1, -1, dtype=np.int64)
-        succ[border[:, 0]] = border[:, 1]
-        start = int(border[:, 0].min())
-        nxt = succ.tolist()
-        loop = [start]
-        while nxt[loop[-1]] not in (start, -1) and len(loop) <= len(border):
-            loop.append(nxt[loop[-1]])
-        if len(loop) == len(border) and nxt[loop[-1]] == start:
-            return np.asarray(loop, dtype=np.int64)
-    return _igl_loop(faces_cut)
+    loop = border_loop(border, int(border[:, 0].min())) if len(border) else None
+    return _igl_loop(faces_cut) if loop is None else loop
 
 
 def _igl_loop(faces_cut: NDArray[np.int64]) -> NDArray[np.int64]:

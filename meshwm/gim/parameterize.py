@@ -106,6 +106,11 @@ def _solve_fixed_boundary(
     return solve_with_fixed(q, boundary, boundary_uv, guess=guess, tol=_TOLERANCE)
 
 
+def _uv_area(s: list[NDArray[np.float64]], t: list[NDArray[np.float64]]) -> NDArray[np.float64]:
+    """Signed UV area of faces from their corners' coordinates ``s[k]``, ``t[k]``."""
+    return 0.5 * ((s[1] - s[0]) * (t[2] - t[0]) - (t[1] - t[0]) * (s[2] - s[0]))
+
+
 def _stretch_rows(
     columns: list[NDArray[np.float64]],
     u: NDArray[np.float64],
@@ -117,7 +122,7 @@ def _stretch_rows(
     f = [np.ascontiguousarray(faces[:, k]) for k in range(3)]
     s = [u[k] for k in f]
     t = [v[k] for k in f]
-    area_uv = 0.5 * ((s[1] - s[0]) * (t[2] - t[0]) - (t[1] - t[0]) * (s[2] - s[0]))
+    area_uv = _uv_area(s, t)
     # A triangle with all three corners on one side of the square has no UV area, whatever the
     # weights: it takes no part in the stretch (its samples come from the boundary chains).
     twice = 2 * np.where(flat | (area_uv == 0), 1.0, area_uv)
@@ -250,9 +255,7 @@ def signed_uv_area(uv: NDArray[np.float64], faces: NDArray[np.int64]) -> NDArray
         f = [np.ascontiguousarray(chunk[:, k]) for k in range(3)]
         s = [u[k] for k in f]
         t = [v[k] for k in f]
-        area[lo : lo + len(chunk)] = 0.5 * (
-            (s[1] - s[0]) * (t[2] - t[0]) - (t[1] - t[0]) * (s[2] - s[0])
-        )
+        area[lo : lo + len(chunk)] = _uv_area(s, t)
     return area
 
 

@@ -40,7 +40,7 @@ def _closest_faces(
     """For each (x, y, 0) point the closest UV triangle and the closest point on it.
 
     The tree holds only the triangles whose box, widened by :data:`_NEAR`, holds a grid point
-    (10M triangles at 5M vertices, of which about 2N² can): a triangle left out is farther than
+    (a fine mesh has far more triangles than the grid has points): one left out is farther than
     ``_NEAR`` from every grid point, so a point found within ``_NEAR`` has its closest triangle;
     a point farther (a map that misses part of the square) asks a tree over them all.
     """

@@ -25,7 +25,7 @@ from meshwm.errors import MeshError
 from meshwm.gim.solve import solve_with_fixed
 from meshwm.gim.stable import StableCut, cut_start, stable_cut
 from meshwm.mesh.clean import unique_edges
-from meshwm.mesh.edges import border_half_edges
+from meshwm.mesh.edges import border_half_edges, border_loop
 
 __all__ = ["StableMap", "boundary_loop", "restart_map", "stable_parameterize", "tutte_map"]
 
@@ -67,21 +67,12 @@ def boundary_loop(faces: NDArray[np.int64], rank: NDArray[np.int64]) -> NDArray[
         If the boundary is not one simple loop.
     """
     border = border_half_edges(faces)
-    n = int(faces.max()) + 1
     if len(border) < 3 or len(np.unique(border[:, 0])) != len(border):
         raise MeshError("the cut mesh's boundary is not one simple loop")
-    succ = np.full(n, -1, dtype=np.int64)
-    succ[border[:, 0]] = border[:, 1]
     start = int(border[np.lexsort((rank[border[:, 1]], rank[border[:, 0]]))[0], 0])
-    loop = [start]
-    nxt = succ.tolist()
-    while nxt[loop[-1]] != start:
-        loop.append(nxt[loop[-1]])
-        if len(loop) > len(border):
-            break
-    if len(loop) != len(border):
+    ring = border_loop(border, start)
+    if ring is None:
         raise MeshError(f"the cut mesh's boundary is {len(border)} edges, not one loop")
-    ring = np.asarray(loop, dtype=np.int64)
     # Copies of the smallest rank whose successors are copies of one vertex too (branch
     # points of a genus > 0 cut): the start whose whole loop of ranks is smallest.
     labels = rank[ring]

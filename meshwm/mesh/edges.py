@@ -16,6 +16,7 @@ from meshwm._digest import LastResult, arrays_key
 
 __all__ = [
     "border_half_edges",
+    "border_loop",
     "corner_edges_by_edge",
     "distinct_rows",
     "edge_topology_counts",
@@ -350,6 +351,30 @@ def border_half_edges(faces: NDArray[np.int64]) -> NDArray[np.int64]:
     border = half[np.sort(order[~found])]
     # A face's far edge (neither end odd) may have its reverse in a face left out: not border.
     return border[odd[border[:, 0]] & odd[border[:, 1]]]
+
+
+def border_loop(border: NDArray[np.int64], start: int) -> NDArray[np.int64] | None:
+    """The vertices of ``border``'s half-edges in order from ``start``, if they are one simple
+    loop (each vertex starting one half-edge, all of them reached); else None.
+
+    Examples
+    --------
+    >>> border_loop(np.array([[0, 1], [2, 0], [1, 2]]), 1).tolist()
+    [1, 2, 0]
+    >>> border_loop(np.array([[0, 1], [1, 2]]), 0) is None
+    True
+    """
+    if len(border) < 3 or len(np.unique(border[:, 0])) != len(border):
+        return None
+    succ = np.full(int(border.max()) + 1, -1, dtype=np.int64)
+    succ[border[:, 0]] = border[:, 1]
+    nxt = succ.tolist()
+    loop = [int(start)]
+    while nxt[loop[-1]] not in (start, -1) and len(loop) <= len(border):
+        loop.append(nxt[loop[-1]])
+    if len(loop) != len(border) or nxt[loop[-1]] != start:
+        return None
+    return np.asarray(loop, dtype=np.int64)
 
 
 def _scramble(n: int) -> NDArray[np.float64]:
