@@ -327,10 +327,10 @@ def border_half_edges(faces: NDArray[np.int64]) -> NDArray[np.int64]:
     n = int(f.max()) + 1
     # Only faces at a vertex whose outgoing and incoming neighbours differ can hold one: the
     # ends of a half-edge (a, b) without (b, a) are such vertices.  Compared by two sums over
-    # the corners, of the indices and of a hash of them (exact in float64 up
-    # to 2^31 per term), which equal multisets give alike; a closed fan's are equal, so on a
-    # mesh with a border only its faces are searched (10M faces: 1.5 s against 4 s).  Every
-    # face with an edge at an odd vertex is searched, so that edge's reverse is found if any.
+    # the corners, of the indices and of a hash of them (exact in float64 up to 2^31 per
+    # term), which equal multisets give alike; a closed fan's are equal, so on a mesh with a
+    # border only its faces are searched (10M faces: 1.5 s against 4 s).  Every face with an
+    # edge at an odd vertex is searched, so that edge's reverse is found if any.
     corner = f.ravel()
     odd = np.zeros(n, dtype=bool)
     for label in (np.arange(n, dtype=np.float64), _scramble(n)):
