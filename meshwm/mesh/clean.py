@@ -102,11 +102,13 @@ def _merge_exact_duplicates(
 
 def _drop_bad_faces(
     vertices: NDArray[np.float64], faces: NDArray[np.int64]
-) -> tuple[NDArray[np.int64], dict]:
+) -> tuple[NDArray[np.int64], dict, NDArray[np.float64]]:
+    """The faces kept, the counts of those dropped, and the kept faces' areas."""
     repeated = (
         (faces[:, 0] == faces[:, 1]) | (faces[:, 1] == faces[:, 2]) | (faces[:, 0] == faces[:, 2])
     )
-    cx, cy, cz = face_cross(vertices, faces)
+    cross = face_cross(vertices, faces)
+    cx, cy, cz = cross
     zero_area = ~repeated & (cx == 0) & (cy == 0) & (cz == 0)
     keep = ~(repeated | zero_area)
     f = faces[keep]
@@ -114,11 +116,16 @@ def _drop_bad_faces(
     first = _first_of_faces(f)
     dup = len(f) - len(first)
     f = f[first]
-    return f, {
-        "faces_repeated_vertex": int(repeated.sum()),
-        "faces_zero_area": int(zero_area.sum()),
-        "faces_duplicate": int(dup),
-    }
+    area = 0.5 * row_norm(cross)[keep][first]
+    return (
+        f,
+        {
+            "faces_repeated_vertex": int(repeated.sum()),
+            "faces_zero_area": int(zero_area.sum()),
+            "faces_duplicate": int(dup),
+        },
+        area,
+    )
 
 
 #: The last faces' first-of-each-face indices: an embedding cleans its input and then its
@@ -244,7 +251,7 @@ def _clean_mesh(
     report: dict = {"vertices_in": len(v), "faces_in": len(f)}
     v, f, merged = _merge_exact_duplicates(v, f)
     report["vertices_merged"] = merged
-    f, dropped = _drop_bad_faces(v, f)
+    f, dropped, area = _drop_bad_faces(v, f)
     report.update(dropped)
     if len(f) == 0:
         raise MeshError("mesh has no faces of non-zero area")
@@ -253,8 +260,10 @@ def _clean_mesh(
     source, f, labels, counts = structure(v, f)
     v = v[source]
     report.update(counts)
-    # Largest component by area; ties by face count, then by smallest vertex position.
-    area = 0.5 * row_norm(face_cross(v, f))
+    # Largest component by area; ties by face count, then by smallest vertex position.  A
+    # face turned over has its area from its new corner order (the bits may differ).
+    if counts["faces_reoriented"]:
+        area = 0.5 * row_norm(face_cross(v, f))
     n_comp = labels.max() + 1
     comp_area = np.bincount(labels, weights=area, minlength=n_comp)
     comp_size = np.bincount(labels, minlength=n_comp)

@@ -324,6 +324,23 @@ def border_half_edges(faces: NDArray[np.int64]) -> NDArray[np.int64]:
     f = np.asarray(faces, dtype=np.int64)
     if len(f) == 0:
         return np.zeros((0, 2), dtype=np.int64)
+    key = arrays_key(f)
+    found: NDArray[np.int64] | None = _BORDER.get(key)
+    if found is None:
+        found = _border_half_edges(f)
+        found.flags.writeable = False
+        _BORDER.put(key, found)
+    return found
+
+
+#: The last faces' border half-edges (:func:`border_half_edges`, by a digest of the faces): the
+#: grid mode's cut mesh is searched by its Euler check and again for its boundary loop (10M
+#: faces: 1.5 s a search).
+_BORDER = LastResult()
+
+
+def _border_half_edges(f: NDArray[np.int64]) -> NDArray[np.int64]:
+    """:func:`border_half_edges`, computed."""
     n = int(f.max()) + 1
     # Only faces at a vertex whose outgoing and incoming neighbours differ can hold one: the
     # ends of a half-edge (a, b) without (b, a) are such vertices.  Compared by two sums over
@@ -331,12 +348,7 @@ def border_half_edges(faces: NDArray[np.int64]) -> NDArray[np.int64]:
     # term), which equal multisets give alike; a closed fan's are equal, so on a mesh with a
     # border only its faces are searched (10M faces: 1.5 s against 4 s).  Every face with an
     # edge at an odd vertex is searched, so that edge's reverse is found if any.
-    corner = f.ravel()
-    odd = np.zeros(n, dtype=bool)
-    for label in (np.arange(n, dtype=np.float64), _scramble(n)):
-        outgoing = np.bincount(corner, weights=label[np.roll(f, -1, axis=1)].ravel(), minlength=n)
-        incoming = np.bincount(corner, weights=label[np.roll(f, 1, axis=1)].ravel(), minlength=n)
-        odd |= outgoing != incoming
+    odd = _odd_vertices(f, n)
     f = f[odd[f].any(axis=1)] if not odd.all() else f
     half = np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]])
     key = half[:, 0] * n + half[:, 1]
@@ -351,6 +363,25 @@ def border_half_edges(faces: NDArray[np.int64]) -> NDArray[np.int64]:
     border = half[np.sort(order[~found])]
     # A face's far edge (neither end odd) may have its reverse in a face left out: not border.
     return border[odd[border[:, 0]] & odd[border[:, 1]]]
+
+
+def _odd_vertices(f: NDArray[np.int64], n: int) -> NDArray[np.bool_]:
+    """Vertices whose two sums over their corners differ: of the next corners' indices and of
+    the previous corners' (and of a hash of each); False at every vertex whose outgoing and
+    incoming neighbours are the same multiset.
+
+    The difference of the two sums, column by column: every partial sum is an integer under
+    2^53, so it is exact in any order and zero exactly where the sums are equal.
+    """
+    column = [np.ascontiguousarray(f[:, j]) for j in range(3)]
+    odd = np.zeros(n, dtype=bool)
+    for label in (np.arange(n, dtype=np.float64), _scramble(n)):
+        excess = np.zeros(n)
+        for j in range(3):
+            step = label[column[(j + 1) % 3]] - label[column[(j + 2) % 3]]
+            excess += np.bincount(column[j], weights=step, minlength=n)
+        odd |= excess != 0
+    return odd
 
 
 def border_loop(border: NDArray[np.int64], start: int) -> NDArray[np.int64] | None:

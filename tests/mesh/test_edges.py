@@ -3,7 +3,13 @@
 import numpy as np
 import pytest
 
-from meshwm.mesh.edges import _row_order, border_half_edges, distinct_rows, unique_rows
+from meshwm.mesh.edges import (
+    _odd_vertices,
+    _row_order,
+    border_half_edges,
+    distinct_rows,
+    unique_rows,
+)
 
 
 def _table(rng: np.random.Generator) -> np.ndarray:
@@ -132,3 +138,39 @@ def test_border_half_edges_are_those_without_a_reverse(seed, plane_mesh):
     want = [h for h in half.tolist() if (h[1], h[0]) not in present]
     assert border_half_edges(f).tolist() == want
     assert border_half_edges(f[:0]).shape == (0, 2)
+    # The last faces' answer is kept by their bytes: the same again, read-only; other faces
+    # (one turned over) are searched afresh.
+    again = border_half_edges(f.copy())
+    assert again.tolist() == want and not again.flags.writeable
+    g = f.copy()
+    g[0] = g[0, ::-1]
+    half = np.concatenate([g[:, [0, 1]], g[:, [1, 2]], g[:, [2, 0]]])
+    present = {tuple(h) for h in half.tolist()}
+    assert border_half_edges(g).tolist() == [
+        h for h in half.tolist() if (h[1], h[0]) not in present
+    ]
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_odd_vertices_are_those_whose_outgoing_and_incoming_neighbours_differ(seed, plane_mesh):
+    # Closed fans (the plane's inside), borders, flipped faces and random fans; the sums agree
+    # exactly where the multisets agree (a vertex where they differ but the sums agree would
+    # be a hash collision, which these sizes do not meet).
+    rng = np.random.default_rng(seed)
+    if seed % 2:
+        f = rng.integers(0, 30, (80, 3))
+    else:
+        f = np.asarray(plane_mesh[1], dtype=np.int64)[rng.random(len(plane_mesh[1])) < 0.95]
+        flip = rng.random(len(f)) < 0.02
+        f[flip] = f[flip][:, ::-1]
+    n = int(f.max()) + 1
+    outgoing: list[list[int]] = [[] for _ in range(n)]
+    incoming: list[list[int]] = [[] for _ in range(n)]
+    for face in f.tolist():
+        for j in range(3):
+            outgoing[face[j]].append(face[(j + 1) % 3])
+            incoming[face[j]].append(face[(j + 2) % 3])
+    want = [sorted(o) != sorted(i) for o, i in zip(outgoing, incoming, strict=True)]
+    got = _odd_vertices(np.asarray(f, dtype=np.int64), n)
+    assert got.tolist() == want
+    assert sum(want) > 0 and (seed % 2 or sum(want) < n)  # the plane's inside is not odd
