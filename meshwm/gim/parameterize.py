@@ -102,7 +102,8 @@ def _solve_fixed_boundary(
     start for the multigrid solve of a large mesh, :mod:`meshwm.gim.solve`)."""
     weights = sp.coo_matrix((w, (rows, cols)), shape=(nv, nv)).tocsr()
     degree = np.asarray(weights.sum(axis=1)).ravel()
-    q = (sp.diags(degree) - weights).tocsc()  # symmetric positive semi-definite
+    # Symmetric positive semi-definite; as CSR, the form the solve takes.
+    q = sp.csr_matrix(sp.diags(degree) - weights)
     return solve_with_fixed(q, boundary, boundary_uv, guess=guess, tol=_TOLERANCE)
 
 
