@@ -114,15 +114,6 @@ def _distinct(vertices: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArr
     return vertices[first], inverse
 
 
-def _locate(positions: NDArray[np.float64], points: NDArray[np.float64]) -> NDArray[np.int64]:
-    """The distinct position equal to each point (every point is one of them)."""
-    first, inv = distinct_rows(np.concatenate([positions, points]))
-    found = first[inv[len(positions) :]]
-    if np.any(found >= len(positions)):  # pragma: no cover - clean_mesh moves no vertex
-        raise MeshError("internal error: a cleaned vertex is not an input position")
-    return found.astype(np.int64)
-
-
 def surface_of(
     vertices: NDArray,
     faces: NDArray,
@@ -171,7 +162,10 @@ def surface_of(
         return _as_given(v, f, rank=rank, min_used=min_used)
     positions, inverse = _distinct(v)
     clean = clean_mesh(v, f, max_faces=max_faces)
-    to_position = _locate(positions, clean.vertices)
+    # Each cleaned vertex is a copy of an input vertex (``clean.source``), so it is at that
+    # vertex's distinct position (found before by grouping both sets of rows again: 5M
+    # vertices, 2.9 s).
+    to_position = inverse[clean.source]
     same = same_cleaning(like, inverse, to_position, to_position[clean.faces])
     reuse = like.map if like is not None and same else None
     smap = _map_filled(clean.vertices, clean.faces, rank=rank, like=reuse)

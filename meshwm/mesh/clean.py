@@ -78,6 +78,8 @@ class CleanMesh(NamedTuple):
     report : dict
         What was changed: counts of merged vertices, dropped faces, split vertices, flipped
         faces and dropped components.
+    source : (n,) int64 ndarray
+        For each of ``vertices``, an input vertex it is a copy of (bit for bit).
     """
 
     vertices: NDArray[np.float64]
@@ -85,19 +87,22 @@ class CleanMesh(NamedTuple):
     other_vertices: NDArray[np.float64]
     other_faces: NDArray[np.int64]
     report: dict
+    source: NDArray[np.int64]
 
 
 def _merge_exact_duplicates(
     vertices: NDArray[np.float64], faces: NDArray[np.int64]
-) -> tuple[NDArray[np.float64], NDArray[np.int64], int]:
-    """Merge vertices with bit-identical positions; keep the first occurrence's order."""
+) -> tuple[NDArray[np.float64], NDArray[np.int64], NDArray[np.int64]]:
+    """Merge vertices with bit-identical positions; keep the first occurrence's order.
+
+    Returns the vertices, the faces and the input index of each vertex kept."""
     # -0.0 and 0.0 are the same position: normalise before comparing bytes.
     v = vertices + 0.0
     # Numbered in order of first appearance, so the result keeps the input order.
     first, inverse = distinct_rows(v)
     if len(first) == len(v):
-        return vertices, faces, 0
-    return vertices[first], inverse[faces], len(v) - len(first)
+        return vertices, faces, np.arange(len(v))
+    return vertices[first], inverse[faces], np.asarray(first, dtype=np.int64)
 
 
 def _drop_bad_faces(
@@ -149,12 +154,20 @@ def _first_of_faces(faces: NDArray[np.int64]) -> NDArray[np.int64]:
 def _drop_unreferenced(
     vertices: NDArray[np.float64], faces: NDArray[np.int64]
 ) -> tuple[NDArray[np.float64], NDArray[np.int64], int]:
+    v, f, kept = _referenced(vertices, faces)
+    return v, f, len(vertices) - len(kept)
+
+
+def _referenced(
+    vertices: NDArray[np.float64], faces: NDArray[np.int64]
+) -> tuple[NDArray[np.float64], NDArray[np.int64], NDArray[np.int64]]:
+    """The vertices the faces use, the faces renumbered, and the index of each kept vertex."""
     used = np.zeros(len(vertices), dtype=bool)
     used[faces.ravel()] = True
     if used.all():
-        return vertices, faces, 0
+        return vertices, faces, np.arange(len(vertices))
     remap = np.cumsum(used) - 1
-    return vertices[used], remap[faces], int((~used).sum())
+    return vertices[used], remap[faces], np.flatnonzero(used)
 
 
 def largest_component(vertices: NDArray, faces: NDArray) -> tuple[NDArray, NDArray]:
@@ -236,7 +249,7 @@ def clean_mesh(
     key = (*arrays_key(v, f), int(max_faces), int(min_faces))
     if key not in memo:
         out = _clean_mesh(v, f, max_faces=max_faces, min_faces=min_faces)
-        for a in (out.vertices, out.faces, out.other_vertices, out.other_faces):
+        for a in (out.vertices, out.faces, out.other_vertices, out.other_faces, out.source):
             a.flags.writeable = False
         memo[key] = out
     found: CleanMesh = memo[key]
@@ -249,16 +262,20 @@ def _clean_mesh(
     """:func:`clean_mesh`, computed."""
     v, f = check_mesh(vertices, faces, max_faces=max_faces)
     report: dict = {"vertices_in": len(v), "faces_in": len(f)}
-    v, f, merged = _merge_exact_duplicates(v, f)
-    report["vertices_merged"] = merged
+    n_in = len(v)
+    v, f, source = _merge_exact_duplicates(v, f)  # source: each vertex's input vertex
+    report["vertices_merged"] = n_in - len(source)
     f, dropped, area = _drop_bad_faces(v, f)
     report.update(dropped)
     if len(f) == 0:
         raise MeshError("mesh has no faces of non-zero area")
-    v, f, unref = _drop_unreferenced(v, f)
-    report["vertices_unreferenced"] = unref
-    source, f, labels, counts = structure(v, f)
-    v = v[source]
+    n_merged = len(v)
+    v, f, kept = _referenced(v, f)
+    source = source[kept]
+    report["vertices_unreferenced"] = n_merged - len(kept)
+    copied, f, labels, counts = structure(v, f)
+    v = v[copied]
+    source = source[copied]
     report.update(counts)
     # Largest component by area; ties by face count, then by smallest vertex position.  A
     # face turned over has its area from its new corner order (the bits may differ).
@@ -278,7 +295,7 @@ def _clean_mesh(
         np.minimum.at(comp_first, face_of_vertex, lex_rank)
         best = int(np.lexsort((comp_first, -comp_size, -comp_area))[0])
     main = labels == best
-    mv, mf, _ = _drop_unreferenced(v, f[main])
+    mv, mf, kept = _referenced(v, f[main])
     if len(mf) < min_faces:
         raise MeshError(
             f"largest connected component has only {len(mf)} faces; need at least {min_faces}"
@@ -289,4 +306,4 @@ def _clean_mesh(
         ov, of = np.zeros((0, 3)), np.zeros((0, 3), dtype=np.int64)
     report["components"] = int(n_comp)
     report["components_passed_through"] = int(n_comp - 1)
-    return CleanMesh(mv, mf, ov, of, report)
+    return CleanMesh(mv, mf, ov, of, report, source[kept])

@@ -175,18 +175,26 @@ def _host(positions: NDArray[np.float64], faces: NDArray[np.int64]) -> _Host:
 
 
 def surface_peak(
-    positions: NDArray[np.float64], faces: NDArray[np.int64], displacement: NDArray[np.float64]
+    positions: NDArray[np.float64],
+    faces: NDArray[np.int64],
+    displacement: NDArray[np.float64],
+    *,
+    largest: float | None = None,
 ) -> float:
     """The largest vertex-to-surface distance between the mesh and the moved mesh, both ways,
     over the used vertices' bounding-box diagonal.
 
     The vertex-sampled two-sided Hausdorff distance: what MeshLab's Hausdorff filter measures,
-    without its edge and face samples (:func:`_vertex_distances`).
+    without its edge and face samples (:func:`_vertex_distances`).  ``largest``: that
+    distance, where the caller has measured it for this displacement (the peak clamp's last
+    round, :func:`_clamp_peaks`).
     """
     host = _host(positions, np.asarray(faces, dtype=np.int64))
     used, diag = host.used, host.diag
     if diag <= 0:
         return 0.0
+    if largest is not None:
+        return largest / diag
     # No vertex is farther than its own move: the largest moves first, then, if none of them
     # is as far as the rest may move, every vertex whose bound passes the best found.
     move = np.linalg.norm(displacement[used], axis=1)
@@ -325,9 +333,16 @@ def _ring_bound(
     return out
 
 
+class _Clamped(NamedTuple):
+    displacement: NDArray[np.float64]
+    #: The largest distance (:func:`surface_peak` times the diagonal) where the last round
+    #: measured it: every vertex it did not ask is nearer than the ones it asked.
+    largest: float | None
+
+
 def _clamp_peaks(
     positions: NDArray[np.float64], faces: NDArray[np.int64], displacement: NDArray[np.float64]
-) -> NDArray[np.float64]:
+) -> _Clamped:
     """Shrink the displacement where a vertex is farther than the cap from the other surface.
 
     Only the vertices over :data:`KEEP_MAX_PEAK` (and their neighbourhood, through the
@@ -335,13 +350,18 @@ def _clamp_peaks(
     strength; the blind read-back then says whether the mark survived the clamp.
     """
     d = np.array(displacement, dtype=np.float64)
+    largest = None
     for _ in range(_PEAK_ROUNDS):
-        dist, diag = _vertex_distances(positions, faces, d, above=_PEAK_AIM * KEEP_MAX_PEAK)
+        above = _PEAK_AIM * KEEP_MAX_PEAK
+        dist, diag = _vertex_distances(positions, faces, d, above=above)
         cap = KEEP_MAX_PEAK * diag
         if diag <= 0 or dist.max() <= cap:
+            # The vertices not asked are at most ``above`` times the diagonal away.
+            best = float(dist.max(initial=0.0))
+            largest = best if diag > 0 and best > above * diag else None
             break
         d *= np.minimum(1.0, _PEAK_AIM * cap / np.maximum(dist, 1e-300))[:, None]
-    return d
+    return _Clamped(d, largest)
 
 
 def _along_normals(
@@ -366,7 +386,7 @@ def _carry_radial(
     bits: NDArray[np.uint8],
     *,
     key: str | bytes,
-) -> tuple[NDArray[np.float64], dict[str, Any]]:
+) -> tuple[_Clamped, dict[str, Any]]:
     """The radial carrier on top of ``displacement``, then the peaks clamped (see module notes).
 
     ``faces`` are the input's faces over ``positions`` (every component: the radial carrier
@@ -386,13 +406,14 @@ def _carry_radial(
             )
         except MeshError as exc:  # no pose (a flat point set): the surface carrier alone
             return _clamp_peaks(positions, clamp_faces, d), {"radial_n": None, "radial": str(exc)}
-        d = _clamp_peaks(positions, clamp_faces, mark.vertices - positions)
+        clamped = _clamp_peaks(positions, clamp_faces, mark.vertices - positions)
+        d = clamped.displacement
         got, _, _ = radial_read(positions + d, faces, len(bits), key=key, n=n)
         report["radial_ber"] = float(np.mean(got != bits))
         if report["radial_ber"] == 0:
             break
         passes = 1
-    return d, report
+    return clamped, report
 
 
 def _mark_at(
@@ -458,7 +479,8 @@ def _mark_at(
     # needed by the radial carrier, the start check or the read-back after them.
     del transfer
     radial_faces = surface.inverse[faces_in]
-    d, radial = _carry_radial(positions, radial_faces, faces, d, bits, key=key)
+    clamped, radial = _carry_radial(positions, radial_faces, faces, d, bits, key=key)
+    d = clamped.displacement
     # The start last: the radial carrier moves vertices along their distance from the centre,
     # which is what picks the start (it tipped spot's and camelhead's after it had been put
     # back, 2 of 36 dev marks, when this came first).  Where the bump that puts it back costs
@@ -473,9 +495,13 @@ def _mark_at(
         radial["radial_ber"] = float(np.mean(got != bits))
         if radial["radial_ber"] == 0 or not again:
             break
-        d, radial = _carry_radial(positions, radial_faces, faces, d, bits, key=key)
+        clamped, radial = _carry_radial(positions, radial_faces, faces, d, bits, key=key)
+        d = clamped.displacement
     report.update(radial)
-    peak = surface_peak(positions, faces, d)
+    # The clamp's last round measured this displacement's largest distance, unless the start
+    # was nudged since.
+    largest = clamped.largest if d is clamped.displacement else None
+    peak = surface_peak(positions, faces, d, largest=largest)
     report.update(rep)
     report["step"] = step
     report["distortion"] = normal_rms(positions, faces, d)

@@ -663,3 +663,32 @@ def test_unique_edges_any_polygon_width(width: int) -> None:
     expected = np.unique(np.sort(directed, axis=1), axis=0)
     np.testing.assert_array_equal(edges, expected)
     np.testing.assert_array_equal(edges[inverse], np.sort(directed, axis=1))
+
+
+def _source_cases() -> list[tuple[np.ndarray, np.ndarray]]:
+    spot = load_asset("spot")
+    rng = np.random.default_rng(3)
+    zeros_v, zeros_f = soup(TETRA_V, TETRA_F)
+    zeros_v = zeros_v.copy()
+    zeros_v[1::2] = np.where(zeros_v[1::2] == 0, -0.0, zeros_v[1::2])
+    stray = np.concatenate([rng.normal(size=(5, 3)), spot[0]])  # unreferenced vertices first
+    return [
+        spot,
+        permute(*soup(*spot), rng),  # merged
+        join(BIG_TETRA_AT_VERTEX, (TETRA_V, TETRA_F)),  # merged, then a fan split
+        join((TETRA_V, TETRA_F), BIG_TETRA_AT_EDGE),  # a pinched edge
+        join(SMALL_TETRA, spot),  # the second component kept
+        (stray, spot[1] + 5),
+        (zeros_v, zeros_f),  # -0.0 and 0.0 merged: the first occurrence's bits
+    ]
+
+
+@pytest.mark.parametrize("case", range(7))
+def test_each_kept_vertex_names_an_input_vertex_it_copies_bit_for_bit(case: int) -> None:
+    vertices, faces = _source_cases()[case]
+    result = clean_mesh(vertices, faces)
+    assert result.source.dtype == np.int64 and len(result.source) == len(result.vertices)
+    assert_array_equal(
+        result.vertices.view(np.uint64),
+        np.asarray(vertices, np.float64)[result.source].view(np.uint64),
+    )

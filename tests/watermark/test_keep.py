@@ -136,10 +136,23 @@ def test_surface_peak_is_the_two_sided_vertex_distance(spot_mesh):
         back = igl.point_mesh_squared_distance(v, v + d, f)[0].max()
         brute = float(np.sqrt(max(there, back))) / diag
         assert surface_peak(v, f, d) == pytest.approx(brute, rel=1e-12)
-        clamped = _clamp_peaks(v, f, d)
-        assert surface_peak(v, f, clamped) <= 1.3e-3
+        clamped, largest = _clamp_peaks(v, f, d)
+        peak = surface_peak(v, f, clamped)
+        assert peak <= 1.3e-3
         small = np.linalg.norm(d, axis=1) < 1e-3 * diag  # vertices far under the cap keep
         np.testing.assert_array_equal(clamped[small], d[small])  # their whole move
+        # The clamp's last round measured the clamped move's peak (spikes brought to the cap).
+        assert largest is not None
+        assert largest / diag == pytest.approx(peak, rel=1e-12)
+        assert surface_peak(v, f, clamped, largest=largest) == largest / diag
+        there = igl.point_mesh_squared_distance(v + clamped, v, f)[0].max()
+        back = igl.point_mesh_squared_distance(v, v + clamped, f)[0].max()
+        assert largest / diag == pytest.approx(float(np.sqrt(max(there, back))) / diag, rel=1e-12)
+    # Nothing near the cap: the clamp asks no vertex, and knows no peak.
+    quiet = rng.normal(size=v.shape) * 1e-5 * diag
+    unchanged, largest = _clamp_peaks(v, f, quiet)
+    np.testing.assert_array_equal(unchanged, quiet)
+    assert largest is None
 
 
 @pytest.mark.parametrize("above", [0.0, 2e-4, 6e-4, 2e-3])
