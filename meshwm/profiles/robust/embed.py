@@ -69,27 +69,31 @@ def embed_gim_robust(
     if not np.all(np.isfinite(gim)):
         raise ValueError("gim contains NaN or infinite values")
     layout = _layout(gim.shape[0], key, len(bits))
-    approx, _ = _split(_wavedec(gim))
+    cover = _wavedec(gim)  # each embedding's first round starts from it
+    normals = _Normals(gim)
+    approx, _ = _split(cover)
     frames, scale = local_frames(approx)
     live = scale[layout.row, layout.col] > 0
     if options.tangential_step is not None:
         step = options.tangential_step
-        marked = _embed_at(gim, bits, layout, frames, scale, _steps(approx, layout, step))
+        marked = _embed_at(gim, bits, layout, frames, scale, _steps(approx, layout, step), cover)
     else:
         # Dithered quantisation moves each coefficient by a uniform fraction of its step, so
         # the distortion is proportional to the step: two corrections reach the target.
         step = _CALIBRATION_START
         for _ in range(3):
-            marked = _embed_at(gim, bits, layout, frames, scale, _steps(approx, layout, step))
-            measured = normal_distortion(gim, marked)
+            marked = _embed_at(
+                gim, bits, layout, frames, scale, _steps(approx, layout, step), cover
+            )
+            measured = normals.distortion(marked)
             if measured <= 0:
                 break
             step = min(step * options.distortion / measured, 1.0)
-        marked = _embed_at(gim, bits, layout, frames, scale, _steps(approx, layout, step))
+        marked = _embed_at(gim, bits, layout, frames, scale, _steps(approx, layout, step), cover)
     report = {
         "profile": "robust",
         "step": step,
-        "distortion": normal_distortion(gim, marked),
+        "distortion": normals.distortion(marked),
         "carriers": int(live.sum()),
         "carriers_per_bit_min": int(np.bincount(layout.bit[live], minlength=len(bits)).min()),
         "capacity_bits": int(live.sum()) // 3,
@@ -106,8 +110,10 @@ def _embed_at(
     frames: NDArray[np.float64],
     scale: NDArray[np.float64],
     step: NDArray[np.float64],
+    cover: list,
 ) -> NDArray[np.float64]:
-    """Quantise every live slot to its bit's lattice, keeping the border samples fixed."""
+    """Quantise every live slot to its bit's lattice, keeping the border samples fixed
+    (``cover``: ``_wavedec(gim)``, the first round's decomposition; read only)."""
     n = gim.shape[0]
     live = scale[layout.row, layout.col] > 0
     target = bits[layout.bit] / 2.0
@@ -116,8 +122,8 @@ def _embed_at(
     border[:, [0, -1]] = True
     marked = gim.copy()
     want = None
-    for _ in range(_ROUNDS):
-        coeffs = _wavedec(marked)
+    for round_ in range(_ROUNDS):
+        coeffs = cover if round_ == 0 else _wavedec(marked)
         _, details = _split(coeffs)
         vals = _values(details, frames, scale, layout)
         if want is None:
@@ -156,15 +162,26 @@ def normal_distortion(gim: NDArray, marked: NDArray) -> float:
     (0.15, 0.0)
     """
     gim = np.asarray(gim, dtype=np.float64)
-    du = np.gradient(gim, axis=0)
-    dv = np.gradient(gim, axis=1)
-    normal = np.cross(du, dv)
-    area = np.linalg.norm(normal, axis=-1)
-    unit = normal / np.where(area > 0, area, 1.0)[..., None]
-    along = np.einsum("ijk,ijk->ij", unit, np.asarray(marked, dtype=np.float64) - gim)
-    pts = gim.reshape(-1, 3)
-    diag = float(np.linalg.norm(pts.max(axis=0) - pts.min(axis=0)))
-    total = float(area.sum())
-    if diag <= 0 or total <= 0:
-        return 0.0
-    return float(np.sqrt(np.sum(area * along**2) / total)) / diag
+    return _Normals(gim).distortion(marked)
+
+
+class _Normals:
+    """:func:`normal_distortion` against one cover, its normals and areas computed once (the
+    calibration measures three embeddings against it)."""
+
+    def __init__(self, gim: NDArray[np.float64]) -> None:
+        du = np.gradient(gim, axis=0)
+        dv = np.gradient(gim, axis=1)
+        normal = np.cross(du, dv)
+        self.area = np.linalg.norm(normal, axis=-1)
+        self.unit = normal / np.where(self.area > 0, self.area, 1.0)[..., None]
+        pts = gim.reshape(-1, 3)
+        self.diag = float(np.linalg.norm(pts.max(axis=0) - pts.min(axis=0)))
+        self.total = float(self.area.sum())
+        self.gim = gim
+
+    def distortion(self, marked: NDArray) -> float:
+        along = np.einsum("ijk,ijk->ij", self.unit, np.asarray(marked, dtype=np.float64) - self.gim)
+        if self.diag <= 0 or self.total <= 0:
+            return 0.0
+        return float(np.sqrt(np.sum(self.area * along**2) / self.total)) / self.diag
