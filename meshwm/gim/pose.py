@@ -23,12 +23,18 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from meshwm._vector import face_area
+from meshwm._vector import _columns, face_area
 
 __all__ = ["SNAP", "Pose", "canonical_pose"]
 
 #: Grid the canonical coordinates are snapped to, in units of the RMS radius.
 SNAP = 2.0**-40
+#: Faces at a time in :func:`canonical_pose`'s sums.
+_POSE_CHUNK = 1 << 16
+
+
+def _corners(chunk: NDArray[np.int64]) -> list[NDArray[np.int64]]:
+    return [np.ascontiguousarray(chunk[:, k]) for k in range(3)]
 
 
 class Pose(NamedTuple):
@@ -79,29 +85,47 @@ def canonical_pose(vertices: NDArray[np.float64], faces: NDArray[np.int64]) -> P
     v = np.asarray(vertices, dtype=np.float64)
     rough = v.mean(axis=0)  # far from the origin, subtract first: the moments stay accurate
     f = np.asarray(faces, dtype=np.int64)
-    # The areas from the moved vertices by columns: the same bits as from ``tri``'s rows.
-    area = face_area(v - rough, f)
-    tri = v[f] - rough
+    moved = v - rough
+    area = face_area(moved, f)
     total = float(area.sum())
     if not total > 0:
         return Pose(rough, np.eye(3), 1.0)
     weight = area / total
-    offset = np.einsum("f,fkd->d", weight, tri) / 3.0
-    rel = tri - offset
+    # The moments a chunk of faces and a coordinate at a time (the (m, 3, 3) corner arrays
+    # were 0.7 GB each at 10M faces, 8.7 s): sums over each chunk by numpy's pairwise sum,
+    # chunk after chunk, the same bits whatever the machine.
+    columns = _columns(moved)
+    offset = np.zeros(3)
+    for lo in range(0, len(f), _POSE_CHUNK):
+        corner = _corners(f[lo : lo + _POSE_CHUNK])
+        w = weight[lo : lo + _POSE_CHUNK]
+        for d in range(3):
+            c = columns[d]
+            offset[d] += np.sum(w * (c[corner[0]] + c[corner[1]] + c[corner[2]]))
+    offset /= 3.0
     centre = rough + offset
     # Exact second moment of each triangle (uniform density): (Σ xᵢxⱼ + (Σx)(Σx)ᵀ) / 12.
-    total_sum = rel.sum(axis=1)
-    second = (
-        np.einsum("f,fki,fkj->ij", weight, rel, rel)
-        + np.einsum("f,fi,fj->ij", weight, total_sum, total_sum)
-    ) / 12.0
+    second = np.zeros((3, 3))
+    sums = np.empty((len(f), 3))  # each face's corners summed, relative to the centre
+    for lo in range(0, len(f), _POSE_CHUNK):
+        corner = _corners(f[lo : lo + _POSE_CHUNK])
+        w = weight[lo : lo + _POSE_CHUNK]
+        rel = [[columns[d][k] - offset[d] for k in corner] for d in range(3)]
+        s = [rel[d][0] + rel[d][1] + rel[d][2] for d in range(3)]
+        sums[lo : lo + len(w)] = np.stack(s, axis=1)
+        for i in range(3):
+            for j in range(i, 3):
+                corners = rel[i][0] * rel[j][0] + rel[i][1] * rel[j][1] + rel[i][2] * rel[j][2]
+                second[i, j] += np.sum(w * (corners + s[i] * s[j]))
+    second = np.triu(second) + np.triu(second, 1).T
+    second /= 12.0
     values, axes = np.linalg.eigh(second)
     axes = axes[:, ::-1]
     scale = float(np.sqrt(max(values.sum(), np.finfo(float).tiny)))
     # Signs: positive third moment along the first two axes (vertex centroids of the faces,
     # area-weighted, suffice to orient them), the third by right-handedness.
-    mid = rel.mean(axis=1) @ axes
-    third = np.einsum("f,fd->d", weight, mid**3)
+    mid = (sums / 3.0) @ axes
+    third = np.sum(weight[:, None] * mid**3, axis=0)
     for k in range(2):
         if third[k] < 0:
             axes[:, k] = -axes[:, k]

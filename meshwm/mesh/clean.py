@@ -277,8 +277,9 @@ def _clean_mesh(
     v = v[copied]
     source = source[copied]
     report.update(counts)
-    # Largest component by area; ties by face count, then by smallest vertex position.  A
-    # face turned over has its area from its new corner order (the bits may differ).
+    # Largest component by area; ties by face count, then by smallest vertex position.  The
+    # areas are the oriented faces': where one was turned over, from its new corner order
+    # (other bits than the bad-face check's).
     if counts["faces_reoriented"]:
         area = 0.5 * row_norm(face_cross(v, f))
     n_comp = labels.max() + 1

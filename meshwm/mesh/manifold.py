@@ -99,15 +99,10 @@ def _corner_labels(
     head1, head2 = head(first), head(second)
     same_way = flat[first] == flat[second]
     loop = flat[first] == flat[head1]  # an edge from a vertex to itself: every end meets
+    meets_tail = np.where(same_way, second, head2)  # the other corner-edge's end at first's tail
+    meets_head = np.where(same_way, head2, second)
     rows = np.concatenate([first, head1, first[loop], head1[loop]])
-    cols = np.concatenate(
-        [
-            np.where(same_way, second, head2),
-            np.where(same_way, head2, second),
-            np.where(same_way, head2, second)[loop],
-            np.where(same_way, second, head2)[loop],
-        ]
-    )
+    cols = np.concatenate([meets_tail, meets_head, meets_head[loop], meets_tail[loop]])
     graph = sp.coo_matrix((np.ones(len(rows)), (rows, cols)), shape=(3 * m, 3 * m)).tocsr()
     return connected_components(graph, directed=False)
 
