@@ -33,10 +33,6 @@ SNAP = 2.0**-40
 _POSE_CHUNK = 1 << 16
 
 
-def _corners(chunk: NDArray[np.int64]) -> list[NDArray[np.int64]]:
-    return [np.ascontiguousarray(chunk[:, k]) for k in range(3)]
-
-
 class Pose(NamedTuple):
     """A similarity ``canonical = (x - centre) @ rotation / scale``.
 
@@ -97,7 +93,7 @@ def canonical_pose(vertices: NDArray[np.float64], faces: NDArray[np.int64]) -> P
     columns = _columns(moved)
     offset = np.zeros(3)
     for lo in range(0, len(f), _POSE_CHUNK):
-        corner = _corners(f[lo : lo + _POSE_CHUNK])
+        corner = _columns(f[lo : lo + _POSE_CHUNK])
         w = weight[lo : lo + _POSE_CHUNK]
         for d in range(3):
             c = columns[d]
@@ -108,7 +104,7 @@ def canonical_pose(vertices: NDArray[np.float64], faces: NDArray[np.int64]) -> P
     second = np.zeros((3, 3))
     sums = np.empty((len(f), 3))  # each face's corners summed, relative to the centre
     for lo in range(0, len(f), _POSE_CHUNK):
-        corner = _corners(f[lo : lo + _POSE_CHUNK])
+        corner = _columns(f[lo : lo + _POSE_CHUNK])
         w = weight[lo : lo + _POSE_CHUNK]
         rel = [[columns[d][k] - offset[d] for k in corner] for d in range(3)]
         s = [rel[d][0] + rel[d][1] + rel[d][2] for d in range(3)]

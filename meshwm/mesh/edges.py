@@ -13,6 +13,7 @@ import scipy.sparse as sp
 from numpy.typing import NDArray
 
 from meshwm._digest import LastResult, arrays_key
+from meshwm._vector import _columns
 
 __all__ = [
     "border_half_edges",
@@ -373,7 +374,7 @@ def _odd_vertices(f: NDArray[np.int64], n: int) -> NDArray[np.bool_]:
     The difference of the two sums, column by column: every partial sum is an integer under
     2^53, so it is exact in any order and zero exactly where the sums are equal.
     """
-    column = [np.ascontiguousarray(f[:, j]) for j in range(3)]
+    column = _columns(f)
     odd = np.zeros(n, dtype=bool)
     for label in (np.arange(n, dtype=np.float64), _scramble(n)):
         excess = np.zeros(n)
