@@ -56,7 +56,7 @@ def _columns(v: NDArray[_T]) -> tuple[NDArray[_T], NDArray[_T], NDArray[_T]]:
 
 def _cross(columns: Columns, f: NDArray) -> Columns:
     """:func:`face_cross` over the vertices' coordinate columns."""
-    corners = [np.ascontiguousarray(f[:, k]) for k in range(3)]
+    corners = _columns(f)
     e1, e2 = [], []
     for column in columns:
         first = column[corners[0]]

@@ -26,6 +26,7 @@ import scipy.sparse as sp
 from numpy.typing import NDArray
 from scipy.sparse.csgraph import connected_components, dijkstra
 
+from meshwm._vector import _columns
 from meshwm.errors import MeshError
 from meshwm.mesh.clean import edge_topology_counts
 from meshwm.mesh.edges import border_half_edges
@@ -88,12 +89,12 @@ def area_centroid(vertices: NDArray[np.float64], faces: NDArray[np.int64]) -> ND
     """
     v = np.asarray(vertices, dtype=np.float64)
     faces = np.asarray(faces)
-    columns = [np.ascontiguousarray(v[:, c]) for c in range(3)]
+    columns = _columns(v)
     area = np.empty(len(faces))
     total: NDArray[np.float64] | None = None
     for lo in range(0, len(faces), _CENTROID_CHUNK):
         chunk = faces[lo : lo + _CENTROID_CHUNK]
-        corners = [np.ascontiguousarray(chunk[:, k]) for k in range(3)]
+        corners = _columns(chunk)
         p = [[column[k] for k in corners] for column in columns]
         e1 = [p[c][1] - p[c][0] for c in range(3)]
         e2 = [p[c][2] - p[c][0] for c in range(3)]

@@ -11,13 +11,13 @@ fall around each vertex.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 
 import numpy as np
 import scipy.sparse as sp
 from numpy.typing import NDArray
 
-from meshwm._vector import face_area
+from meshwm._vector import _columns, face_area
 from meshwm.gim.solve import solve_with_fixed
 
 __all__ = ["GridStep", "flat_faces", "grid_step", "signed_uv_area", "stretch_parameterize"]
@@ -39,12 +39,12 @@ def _cotangents(vertices: NDArray[np.float64], faces: NDArray[np.int64]) -> NDAr
     squared edge lengths ``l2[:, k]`` of the edge opposite corner ``k``, the doubled area by
     Kahan's formula on the sorted lengths (0 where it is NaN), ``(l2_j + l2_k - l2_i) / 2A / 4``.
     """
-    columns = [np.ascontiguousarray(vertices[:, c]) for c in range(3)]
+    columns = _columns(vertices)
     out = np.empty((len(faces), 3))
     with np.errstate(divide="ignore", invalid="ignore"):  # a zero area: igl's inf / NaN
         for lo in range(0, len(faces), _CHUNK):
             chunk = faces[lo : lo + _CHUNK]
-            f = [np.ascontiguousarray(chunk[:, k]) for k in range(3)]
+            f = _columns(chunk)
             l2 = []
             for i, j in ((1, 2), (2, 0), (0, 1)):
                 d = [column[f[i]] - column[f[j]] for column in columns]
@@ -113,14 +113,14 @@ def _uv_area(s: list[NDArray[np.float64]], t: list[NDArray[np.float64]]) -> NDAr
 
 
 def _stretch_rows(
-    columns: list[NDArray[np.float64]],
+    columns: Sequence[NDArray[np.float64]],
     u: NDArray[np.float64],
     v: NDArray[np.float64],
     faces: NDArray[np.int64],
     flat: NDArray[np.bool_],
 ) -> NDArray[np.float64]:
     """:func:`_face_stretch` of a chunk of faces, one coordinate column at a time."""
-    f = [np.ascontiguousarray(faces[:, k]) for k in range(3)]
+    f = _columns(faces)
     s = [u[k] for k in f]
     t = [v[k] for k in f]
     area_uv = _uv_area(s, t)
@@ -154,7 +154,7 @@ def _face_stretch(
     and a coordinate at a time with the row-wise formula's operations in their order (the same
     bits without its (m, 3) gathers: 1.2 GB at 10M faces, at the grid mode's peak).
     """
-    columns = [np.ascontiguousarray(vertices[:, c]) for c in range(3)]
+    columns = _columns(vertices)
     u, v = np.ascontiguousarray(uv[:, 0]), np.ascontiguousarray(uv[:, 1])
     sigma = np.empty(len(faces))
     for lo in range(0, len(faces), _CHUNK):
@@ -253,7 +253,7 @@ def signed_uv_area(uv: NDArray[np.float64], faces: NDArray[np.int64]) -> NDArray
     area = np.empty(len(faces))
     for lo in range(0, len(faces), _CHUNK):
         chunk = faces[lo : lo + _CHUNK]
-        f = [np.ascontiguousarray(chunk[:, k]) for k in range(3)]
+        f = _columns(chunk)
         s = [u[k] for k in f]
         t = [v[k] for k in f]
         area[lo : lo + len(chunk)] = _uv_area(s, t)
