@@ -20,7 +20,7 @@ from numpy.typing import NDArray
 
 from meshwm._validate import check_integer
 
-__all__ = ["Sampling", "grid_points", "near_grid_faces", "sampling_matrix"]
+__all__ = ["Sampling", "bilinear_matrix", "grid_points", "near_grid_faces", "sampling_matrix"]
 
 
 class Sampling(NamedTuple):
@@ -51,6 +51,60 @@ def grid_points(n: int) -> NDArray[np.float64]:
     g = np.arange(n, dtype=np.float64) / (n - 1)
     uu, vv = np.meshgrid(g, g)  # uu[i, j] = j / (N - 1), vv[i, j] = i / (N - 1)
     return np.stack([uu.ravel(), vv.ravel()], axis=1)
+
+
+def bilinear_matrix(uv: NDArray[np.float64], n: int) -> sp.csr_matrix:
+    """The bilinear weights of points of the unit square on the N×N grid points.
+
+    The transpose of the geometry image's sampling: where :func:`sampling_matrix` reads grid
+    points off a mesh, this reads points (a mesh's vertices, at their UVs) off a grid, so
+    ``bilinear_matrix(uv, n) @ image.reshape(N², k)`` is the image's bilinear interpolant at
+    ``uv``.
+
+    Parameters
+    ----------
+    uv : (V, 2) array_like of float
+        Points, normally in ``[0, 1]²``; outside it they take the nearest cell's weights
+        (extrapolated, still summing to 1).
+    n : int
+        Grid size N >= 2.
+
+    Returns
+    -------
+    (V, N²) scipy.sparse.csr_matrix of float64
+        Row ``k`` holds at most four weights, summing to 1, at the corners ``i * N + j`` of the
+        cell that holds ``uv[k]``.
+
+    Raises
+    ------
+    ValueError
+        ``uv`` not (V, 2) or not finite, ``n`` < 2.
+
+    Examples
+    --------
+    >>> m = bilinear_matrix(np.array([[0.25, 0.5], [1.0, 1.0]]), 3)
+    >>> m.toarray().round(3).tolist()[0]
+    [0.0, 0.0, 0.0, 0.5, 0.5, 0.0, 0.0, 0.0, 0.0]
+    >>> (m @ grid_points(3)).tolist()  # a linear field is reproduced
+    [[0.25, 0.5], [1.0, 1.0]]
+    """
+    size = check_integer(n, name="n", low=2)
+    u = np.asarray(uv, dtype=np.float64)
+    if u.ndim != 2 or u.shape[1] != 2:
+        raise ValueError(f"uv must have shape (V, 2), got {u.shape}")
+    if not np.isfinite(u).all():
+        raise ValueError("uv must be finite")
+    scaled = u * (size - 1)
+    cell = np.clip(np.floor(scaled), 0, size - 2).astype(np.int64)
+    frac = scaled - cell
+    fx, fy = frac[:, 0], frac[:, 1]
+    corner = cell[:, 1] * size + cell[:, 0]  # row i = v, column j = u
+    cols = np.stack([corner, corner + 1, corner + size, corner + size + 1], axis=1)
+    weights = np.stack([(1 - fx) * (1 - fy), fx * (1 - fy), (1 - fx) * fy, fx * fy], axis=1)
+    rows = np.repeat(np.arange(len(u)), 4)
+    matrix = sp.csr_matrix((weights.ravel(), (rows, cols.ravel())), shape=(len(u), size * size))
+    matrix.eliminate_zeros()
+    return matrix
 
 
 def _check_inputs(uv: object, faces: object, n: object) -> tuple[NDArray, NDArray, int]:

@@ -31,7 +31,7 @@ from scipy.sparse.csgraph import connected_components
 from meshwm._validate import DEFAULT_MAX_FACES, check_mesh
 from meshwm.errors import MeshError
 from meshwm.gim.holes import boundary_loops, fill_holes
-from meshwm.gim.sampling import sampling_matrix
+from meshwm.gim.sampling import bilinear_matrix, sampling_matrix
 from meshwm.gim.stable import cut_start, nudge_start
 from meshwm.gim.tutte import StableMap, restart_map, stable_parameterize
 from meshwm.mesh.clean import clean_mesh
@@ -46,6 +46,7 @@ __all__ = [
     "remap_surface",
     "same_cleaning",
     "sample_surface",
+    "surface_basis",
     "surface_of",
 ]
 
@@ -246,13 +247,13 @@ def remap_surface(
 
 def keep_start(
     surface: Surface,
-    positions: NDArray[np.float64],
+    displacement: NDArray[np.float64],
     *,
     margin: float = 1e-5,
     rounds: int = 4,
 ) -> NDArray[np.float64] | None:
-    """The displacement of ``positions`` (moved distinct positions of ``surface``) after which
-    the map's cut keeps ``surface``'s start, or None where that fails.
+    """The bump to add to ``displacement`` (a move of ``surface``'s distinct positions) after
+    which the map's cut keeps ``surface``'s start, or None where that fails.
 
     The cut and the map depend on the geometry only through the start, the farthest vertex of a
     smoothed copy (:func:`meshwm.gim.stable.cut_start`); where the input's farthest vertex is a
@@ -260,21 +261,27 @@ def keep_start(
     adds the least-norm smooth bump that puts the input's source back ahead by ``margin``
     (:func:`meshwm.gim.stable.nudge_start`), then checks the start as a reader computes it.
 
+    The check is made on ``surface.positions + (displacement + bump)``, the very bits the
+    marked mesh will have, so a reader's start of that mesh is the one found here (and
+    :func:`meshwm.gim.stable.cut_start` has it memoised).
+
     Returns
     -------
     (p, 3) float64 ndarray or None
-        The displacement to add (zeros where the start is already kept), or None: the start is
-        not kept within ``rounds`` (its first edge moved, or the bumps do not converge).
+        The bump to add (zeros where the start is already kept), or None: the start is not
+        kept within ``rounds`` (its first edge moved, or the bumps do not converge).
     """
     k = len(surface.clean_to_position)
     cut = surface.map.cut
     filled_faces, clean_faces = _map_faces(surface)
     want = (int(cut.order[0]), int(cut.order[1]))
-    p = np.asarray(positions, dtype=np.float64)
-    bump = np.zeros_like(p)
+    d = np.asarray(displacement, dtype=np.float64)
+    bump = np.zeros_like(d)
+    total = d
     loops = boundary_loops(clean_faces)  # the connectivity's: the same every round
     for round_ in range(rounds + 1):
-        points, faces = _filled((p + bump)[surface.clean_to_position], clean_faces, loops)
+        moved = (surface.positions + total)[surface.clean_to_position]
+        points, faces = _filled(moved, clean_faces, loops)
         if not np.array_equal(faces, filled_faces):
             return None
         if cut_start(points, faces)[0] == want:
@@ -283,6 +290,7 @@ def keep_start(
         if push is None:
             return None
         bump[surface.clean_to_position] += push[:k]
+        total = d + bump
     return None
 
 
@@ -365,3 +373,33 @@ def sample_surface(surface: Surface, *, size: int) -> SurfaceImage:
     samples = np.asarray(matrix @ surface.positions).reshape(size, size, 3)
     samples[~covered] = np.nan
     return SurfaceImage(samples, matrix, covered)
+
+
+def surface_basis(surface: Surface, *, size: int) -> sp.csr_matrix:
+    """Each distinct position's bilinear weights on the ``size``-square grid, at its UV.
+
+    The reverse of :func:`sample_surface`'s matrix: ``basis @ c`` spreads values ``c`` on the
+    grid points (an (N², k) array) onto the positions, bilinearly at each position's place in
+    the map.  A position the cut splits has a UV on each side; it takes the mean of their
+    weights.  Positions outside the mapped component (other components) get an empty row.
+
+    Parameters
+    ----------
+    surface : Surface
+    size : int
+        N.
+
+    Returns
+    -------
+    (p, N²) scipy.sparse.csr_matrix of float64
+        Rows summing to 1 (0 for an unmapped position).
+    """
+    cut = surface.map.cut.mesh
+    real = np.flatnonzero(cut.origin < len(surface.clean_to_position))
+    position = surface.clean_to_position[cut.origin[real]]
+    copies = np.bincount(position, minlength=len(surface.positions)).astype(np.float64)
+    fold = sp.csr_matrix(
+        (1.0 / copies[position], (position, np.arange(len(real)))),
+        shape=(len(surface.positions), len(real)),
+    )
+    return sp.csr_matrix(fold @ bilinear_matrix(surface.map.uv[real], size))

@@ -38,6 +38,7 @@ from meshwm.gim.surface import (
     SurfaceImage,
     keep_start,
     sample_surface,
+    surface_basis,
     surface_of,
 )
 from meshwm.gim.transfer import Transfer
@@ -81,6 +82,10 @@ _PEAK_FIRST = 1024
 _RING_CHUNK = 250_000
 #: The transfer's smoothness energy (:data:`meshwm.gim.transfer.ENERGIES`).
 KEEP_ENERGY = "dirichlet"
+#: Vertices per covered grid point from which the transfer's unknowns are the grid points'
+#: values, spread bilinearly onto the vertices (:func:`meshwm.gim.surface.surface_basis`),
+#: rather than the vertices' own moves.
+_BASIS_DENSITY = 16
 #: Least-squares refinement passes of each transfer (the outer passes refine too).
 _TRANSFER_PASSES = 1
 #: Radial passes after a peak clamp moved a projection off its lattice point.
@@ -100,7 +105,9 @@ class KeptMark(NamedTuple):
     report : dict
         ``n`` (the geometry-image size chosen), ``capacity_bits``, ``step``, ``distortion``
         (the RMS normal displacement over the diagonal, on the input's vertices), ``confidence``
-        (mean |vote| of a re-read), ``ber`` of that re-read, and the sizes tried.
+        (mean |vote| of a re-read), ``ber`` of that re-read, ``transfer`` (``"vertices"``: the
+        vertices' own moves solved for; ``"grid"``: a mesh much finer than the grid, moved by
+        the grid points' values spread bilinearly), and the sizes tried.
     """
 
     vertices: NDArray[np.float64]
@@ -431,12 +438,15 @@ def _mark_at(
     positions = surface.positions
     faces = surface.faces
     sampling = Sampling(image.matrix, image.covered)
-    transfer = Transfer(faces, sampling, n_vertices=len(positions), energy=KEEP_ENERGY)
+    fine = int(surface.used.sum()) >= _BASIS_DENSITY * int(image.covered.sum())
+    basis = surface_basis(surface, size=image.n) if fine else None
+    transfer = Transfer(faces, sampling, n_vertices=len(positions), energy=KEEP_ENERGY, basis=basis)
     target = float(getattr(params.options, "distortion", 0.0)) or None
     options = params.options
     cover, _ = fill_missing(image.samples)
     first = profile.embed(cover, bits, key=key, options=options)
     report = dict(first.report)
+    report["transfer"] = "grid" if fine else "vertices"
     step = report.get("step")
 
     def read(d: NDArray[np.float64]) -> tuple[float, float]:
@@ -515,7 +525,7 @@ def _keep_start(surface: Surface, d: NDArray[np.float64]) -> tuple[NDArray[np.fl
     :func:`meshwm.gim.surface.keep_start`): the marked mesh then has the input's cut and map,
     which a blind reader re-derives first.  Where that fails ``d`` is kept (a reader then finds
     the mark through the runner-up starts it tries, and the embedder's read-back checks it)."""
-    bump = keep_start(surface, surface.positions + d)
+    bump = keep_start(surface, d)
     if bump is None:
         return d, "moved"
     if not bump.any():

@@ -8,7 +8,7 @@ import scipy.sparse as sp
 from numpy.testing import assert_allclose, assert_array_equal
 
 from meshwm.gim.code import grid_faces
-from meshwm.gim.sampling import Sampling, grid_points, sampling_matrix
+from meshwm.gim.sampling import Sampling, bilinear_matrix, grid_points, sampling_matrix
 
 N = 33
 
@@ -120,3 +120,32 @@ def test_only_triangles_near_grid_points_are_searched_and_nothing_is_lost(seed):
     assert 0 < inside.sum() < len(points)
     np.testing.assert_array_equal(s.covered.ravel(), inside)
     np.testing.assert_allclose((s.matrix @ uv)[inside], points[inside], atol=1e-12)
+
+
+def test_bilinear_weights_reproduce_bilinear_fields_and_pick_grid_points():
+    rng = np.random.default_rng(5)
+    n = 9
+    uv = np.concatenate([rng.uniform(0, 1, (200, 2)), [[0, 0], [1, 1], [1, 0], [0, 1]]])
+    m = bilinear_matrix(uv, n)
+    assert m.shape == (len(uv), n * n) and np.diff(m.indptr).max() <= 4
+    assert_allclose(np.asarray(m.sum(axis=1)).ravel(), 1.0)
+    g = grid_points(n)
+    field = np.column_stack([g, g[:, 0] * g[:, 1], 3 - 2 * g[:, 0] + g[:, 1]])
+    want = np.column_stack([uv, uv[:, 0] * uv[:, 1], 3 - 2 * uv[:, 0] + uv[:, 1]])
+    assert_allclose(m @ field, want, atol=1e-12)
+    # At a grid point the row is that point alone; the transpose of the sampling's convention.
+    at = bilinear_matrix(g, n)
+    assert_allclose(at.toarray(), np.eye(n * n), atol=1e-12)
+
+
+@pytest.mark.parametrize(
+    ("uv", "n", "match"),
+    [
+        (np.zeros((3, 3)), 4, "uv must have shape"),
+        (np.array([[0.5, np.nan]]), 4, "uv must be finite"),
+        (np.zeros((3, 2)), 1, "n must be"),
+    ],
+)
+def test_bilinear_bad_input_raises(uv, n, match):
+    with pytest.raises(ValueError, match=match):
+        bilinear_matrix(uv, n)

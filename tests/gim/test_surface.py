@@ -80,7 +80,8 @@ def test_keep_start_puts_a_tipped_start_back_with_a_small_smooth_bump(request, n
     v, f = request.getfixturevalue(name)
     base = surface_of(v, f)
     diag = np.linalg.norm(v.max(axis=0) - v.min(axis=0))
-    assert not keep_start(base, base.positions).any()  # the input's own start: nothing to add
+    # The input's own start: nothing to add.
+    assert not keep_start(base, np.zeros_like(base.positions)).any()
     k = len(base.clean_to_position)
     cut = base.map.cut
     filled = cut.mesh.origin[cut.mesh.faces]
@@ -99,9 +100,36 @@ def test_keep_start_puts_a_tipped_start_back_with_a_small_smooth_bump(request, n
         moved[base.clean_to_position] += tip[:k]
         moved_start = _start(surface_of(moved[base.inverse], f))
         assert moved_start != _start(base)
-        bump = keep_start(base, moved)
+        d = moved - base.positions
+        bump = keep_start(base, d)
         assert bump is not None
-        assert _start(surface_of((moved + bump)[base.inverse], f)) == _start(base)
+        assert _start(surface_of((base.positions + (d + bump))[base.inverse], f)) == _start(base)
         assert np.abs(bump).max() <= 2 * np.abs(tip).max() + 1e-3 * diag
         tipped += 1
     assert tipped >= 2
+
+
+@pytest.mark.parametrize("name", ["spot_mesh", "plane_mesh"])
+def test_the_surface_basis_puts_each_position_at_its_uv(request, name):
+    from meshwm.gim.sampling import grid_points
+    from meshwm.gim.surface import surface_basis
+
+    v, f = request.getfixturevalue(name)
+    surface = surface_of(v, f)
+    n = 64
+    basis = surface_basis(surface, size=n)
+    assert basis.shape == (len(surface.positions), n * n)
+    sums = np.asarray(basis.sum(axis=1)).ravel()
+    mapped = np.zeros(len(surface.positions), dtype=bool)
+    mapped[surface.clean_to_position] = True
+    np.testing.assert_allclose(sums[mapped], 1.0)
+    assert not sums[~mapped].any()
+    # A linear field on the grid comes back as the position's UV (the mean of its copies' on
+    # the cut's two sides).
+    cut = surface.map.cut.mesh
+    real = cut.origin < len(surface.clean_to_position)
+    position = surface.clean_to_position[cut.origin[real]]
+    want = np.zeros((len(surface.positions), 2))
+    np.add.at(want, position, surface.map.uv[real])
+    want[mapped] /= np.bincount(position, minlength=len(want))[mapped, None]
+    np.testing.assert_allclose(basis @ grid_points(n), want, atol=1e-12)

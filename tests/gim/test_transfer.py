@@ -8,8 +8,14 @@ from numpy.testing import assert_allclose, assert_array_equal
 from scipy.sparse.linalg import lsqr
 
 from meshwm.gim.code import grid_faces
-from meshwm.gim.sampling import grid_points, sampling_matrix
-from meshwm.gim.transfer import DEFAULT_SMOOTHNESS, transfer_changes, uniform_laplacian
+from meshwm.gim.sampling import bilinear_matrix, grid_points, sampling_matrix
+from meshwm.gim.transfer import (
+    DEFAULT_SMOOTHNESS,
+    Transfer,
+    grid_laplacian,
+    transfer_changes,
+    uniform_laplacian,
+)
 
 #: Relative RMS of (re-sampled change - wanted change) on covered points, measured 0.4 % (N 64)
 #: and 1.6 % (N 128) on the sheet below; the bound leaves room for other BLAS builds.
@@ -197,3 +203,46 @@ def test_a_sampling_of_another_mesh_is_refused(curved_sheet):
         transfer_changes(vertices[:, :2], faces, sampling, np.zeros((16, 16, 3)))
     with pytest.raises(ValueError, match="faces must index"):
         transfer_changes(vertices, faces + len(vertices), sampling, np.zeros((16, 16, 3)))
+
+
+def test_the_grid_laplacian_is_the_four_neighbour_graphs():
+    n = 5
+    got = grid_laplacian(n).toarray()
+    want = np.zeros((n * n, n * n))
+    for i in range(n):
+        for j in range(n):
+            nbrs = [(a, b) for a, b in ((i - 1, j), (i + 1, j), (i, j - 1), (i, j + 1))]
+            nbrs = [(a, b) for a, b in nbrs if 0 <= a < n and 0 <= b < n]
+            want[i * n + j, i * n + j] = 1.0
+            for a, b in nbrs:
+                want[i * n + j, a * n + b] = -1.0 / len(nbrs)
+    assert_allclose(got, want)
+
+
+@pytest.mark.parametrize("n", [8, 16])
+def test_a_fine_mesh_moved_through_the_grid_basis_fits_smoothly(curved_sheet, n):
+    # 64 × 64 vertices on a 16² / 8² grid: 16 / 64 vertices per sample.  The unknowns are the
+    # grid points' values, spread bilinearly: the move is the basis's (no vertex of its own),
+    # fits the change, and is at least as smooth as the vertices' own least-norm move.
+    vertices, faces, uv = curved_sheet
+    sampling = sampling_matrix(uv, faces, n)
+    changes = band_limited(n, np.random.default_rng(n), cycles=2)
+    basis = bilinear_matrix(uv, n)
+    grid = Transfer(faces, sampling, n_vertices=len(uv), energy="dirichlet", basis=basis)
+    d = grid.apply(changes, passes=3)
+    assert d.shape == vertices.shape
+    assert relative_rms(sampling, d, changes) < 0.01
+    assert np.abs(d).max() <= 1.1 * np.abs(changes).max()
+    values = np.column_stack([lsqr(basis, d[:, k], atol=1e-14, btol=1e-14)[0] for k in range(3)])
+    assert_allclose(basis @ values, d, atol=1e-9 * np.abs(d).max())
+    own = Transfer(faces, sampling, n_vertices=len(uv), energy="dirichlet").apply(changes, passes=3)
+    laplacian = uniform_laplacian(faces, len(uv))
+    rough = [np.linalg.norm(laplacian @ x) / np.linalg.norm(x) for x in (d, own)]
+    assert rough[0] <= 1.02 * rough[1]
+
+
+def test_a_basis_of_another_grid_is_refused(curved_sheet):
+    _, faces, uv = curved_sheet
+    sampling = sampling_matrix(uv, faces, 16)
+    with pytest.raises(ValueError, match="basis must be of the"):
+        Transfer(faces, sampling, n_vertices=len(uv), basis=bilinear_matrix(uv, 8))
