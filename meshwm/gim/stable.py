@@ -163,10 +163,11 @@ def _step(
 
 #: The last mesh's smoothing step (renumbered, :func:`_localised`): the embedder smooths one
 #: connectivity four or five times (the input, the start's checks, the read-back).  Kept only
-#: up to this many vertices (igea Loop-subdivided twice, 2.1M, is; at 5M the step alone is
-#: 0.4 GB, and kept it put the embedding's peak over 8 GB).
+#: up to this many vertices (at 5M the step alone is 0.4 GB; kept, it put the embedding's
+#: peak over 8 GB while the transfer factorised the mesh's own system, which it no longer
+#: does: 6.5 GiB without it; building it again cost 7.6 s a check at 5M).
 _STEP_MEMO = LastResult()
-_STEP_MEMO_ROWS = 3_000_000
+_STEP_MEMO_ROWS = 6_000_000
 
 
 #: Above this many rows, :func:`_repeat` renumbers the rows for locality first.
