@@ -43,35 +43,71 @@ TOLERANCE = 1e-10
 _MAXITER = 400
 
 
-def _hierarchy(matrix: sp.csr_matrix) -> Any:
-    import pyamg  # only large systems need it
+#: PyAMG's defaults for the hierarchy's size: at most this many levels, and a level of at most
+#: this many unknowns is the coarsest.
+_MAX_LEVELS = 10
+_MAX_COARSE = 10
 
-    # Smoothed aggregation with symmetric Gauss-Seidel (a symmetric preconditioner, as CG
-    # wants).  Ruge-Stüben, used before, needed ever more iterations on the cotangent
-    # Laplacian as the mesh grew (igea Loop-subdivided, 4 vertices fixed: 47 iterations at
-    # 0.5M, 59 at 2M; 15.9 s and 133 s, slope 1.52); this, as configured here: 33 iterations,
-    # 9.0 s at 0.5M and 217 s at 5M (docs/bench/scale.md).  The Tutte system at 0.5M: 21-22
-    # iterations and 12.4 s against 28 and 8.7 s.
-    # The prolongator's Jacobi smoothing weighted by Gershgorin's local bound, not by PyAMG's
-    # default spectral-radius estimate (which starts from a random vector): the hierarchy, and
-    # so every solve, is a deterministic function of the matrix.
+
+def _hierarchy(matrix: sp.csr_matrix) -> Any:
+    """PyAMG's smoothed-aggregation hierarchy of ``matrix``, built one level at a time.
+
+    Smoothed aggregation with symmetric Gauss-Seidel (a symmetric preconditioner, as CG
+    wants).  Ruge-Stüben, used before, needed ever more iterations on the cotangent Laplacian
+    as the mesh grew (igea Loop-subdivided, 4 vertices fixed: 47 iterations at 0.5M, 59 at
+    2M; 15.9 s and 133 s, slope 1.52); this, as configured here: 33 iterations, 9.0 s at 0.5M
+    and 217 s at 5M (docs/bench/scale.md).  The Tutte system at 0.5M: 21-22 iterations and
+    12.4 s against 28 and 8.7 s.  The prolongator's Jacobi smoothing is weighted by
+    Gershgorin's local bound, not by PyAMG's default spectral-radius estimate (which starts
+    from a random vector): the hierarchy, and so every solve, is a deterministic function of
+    the matrix.
+
+    One unknown per node, so PyAMG makes the coarse matrices and the transfer operators BSR
+    of 1×1 blocks, whose products leave their indices unsorted; the next level's smoothing
+    then sorts them inside ``abs`` (2.6 s a hierarchy at 5M unknowns), and their Gauss-Seidel
+    and products run slower than CSR's on the same entries (the Tutte system of igea at 2.1M
+    vertices 6.8 -> 5.5 s a column).  So each level is built by PyAMG from the last one's
+    matrix as sorted CSR (PyAMG's own steps and options, level by level: its candidates
+    improved on the finest level only, as its default), and its operators kept as CSR.
+    """
+    import pyamg
+    from pyamg.multilevel import MultilevelSolver
+    from pyamg.relaxation.smoothing import change_smoothers
+
     symmetric = ("gauss_seidel", {"sweep": "symmetric"})
-    hierarchy = pyamg.smoothed_aggregation_solver(
-        sp.csr_matrix(matrix),
-        symmetry="symmetric",
-        smooth=("jacobi", {"omega": 4.0 / 3.0, "weighting": "local"}),
-        presmoother=symmetric,
-        postsmoother=symmetric,
-    )
-    # One unknown per node, so the coarse matrices and the transfer operators are BSR of 1×1
-    # blocks, whose Gauss-Seidel and products run slower than CSR's on the same entries: the
-    # Tutte system of igea at 2.1M vertices 6.8 -> 5.5 s a column, the transfer's 0.72 ->
-    # 0.56 s (the solutions differ from the BSR ones by 1e-13, rounding).
-    for level in hierarchy.levels:
-        for name in ("A", "P", "R"):
-            operator = getattr(level, name, None)
-            if operator is not None and operator.format == "bsr" and operator.blocksize == (1, 1):
-                setattr(level, name, sp.csr_array(operator))
+    options: dict[str, Any] = {
+        "symmetry": "symmetric",
+        "smooth": ("jacobi", {"omega": 4.0 / 3.0, "weighting": "local"}),
+        "max_levels": 2,
+        "max_coarse": _MAX_COARSE,
+    }
+    a = sp.csr_array(matrix)
+    a.sort_indices()
+    candidates = None
+    levels: list[Any] = []
+    while True:
+        improve = {} if not levels else {"improve_candidates": None}
+        part = pyamg.smoothed_aggregation_solver(a, B=candidates, **options, **improve).levels
+        fine = part[0]
+        fine.A = a
+        if len(part) == 1:  # too small to coarsen
+            levels.append(fine)
+            break
+        for name in ("P", "R"):
+            operator = sp.csr_array(getattr(fine, name))
+            operator.sort_indices()
+            setattr(fine, name, operator)
+        levels.append(fine)
+        a = sp.csr_array(part[1].A)
+        a.sort_indices()
+        candidates = part[1].B
+        if len(levels) + 1 >= _MAX_LEVELS or a.shape[0] <= _MAX_COARSE:
+            last = MultilevelSolver.Level()
+            last.A, last.B = a, candidates
+            levels.append(last)
+            break
+    hierarchy = MultilevelSolver(levels)
+    change_smoothers(hierarchy, symmetric, symmetric)
     return hierarchy
 
 
