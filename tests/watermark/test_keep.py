@@ -155,6 +155,22 @@ def test_surface_peak_is_the_two_sided_vertex_distance(spot_mesh):
     assert largest is None
 
 
+def test_the_largest_distance_over_the_clamps_aim_is_the_peak(spot_mesh):
+    # After a nudge the peak is measured as the clamp measures it (only vertices whose bound
+    # passes its aim): a smooth move of many vertices near the cap, then one far under it.
+    from meshwm.watermark.keep import _largest_above, surface_peak
+
+    v, f = spot_mesh
+    diag = bounding_box_diagonal(v)
+    wave = np.sin(40 * v / diag) * np.cos(25 * v[:, [1, 2, 0]] / diag)
+    for scale in (1.2e-3, 1.6e-3):
+        d = wave * scale * diag / np.abs(wave).max()
+        largest = _largest_above(v, f, d)
+        assert largest is not None and largest / diag > 0.97 * 1.3e-3
+        assert largest / diag == surface_peak(v, f, d)
+    assert _largest_above(v, f, wave * 1e-4 * diag / np.abs(wave).max()) is None
+
+
 @pytest.mark.parametrize("above", [0.0, 2e-4, 6e-4, 2e-3])
 def test_vertex_distances_are_exact_wherever_they_pass_the_threshold(spot_mesh, above, monkeypatch):
     """Each vertex's two-sided distance, against igl's on the whole mesh, for every vertex
