@@ -362,9 +362,9 @@ def sample_surface(surface: Surface, *, size: int) -> SurfaceImage:
     if not real.all():  # grid points in a filled hole touch its centre: not the surface
         in_hole = np.asarray(sampling.matrix @ (~real).astype(np.float64)).ravel() > 0
         covered &= ~in_hole.reshape(size, size)
-    keep = np.flatnonzero(real)
+    keep, position = _cut_positions(surface)
     fold = sp.csr_matrix(
-        (np.ones(len(keep)), (keep, surface.clean_to_position[cut.origin[keep]])),
+        (np.ones(len(keep)), (keep, position)),
         shape=(len(cut.origin), len(surface.positions)),
     )
     rows = sp.diags(covered.ravel().astype(np.float64))
@@ -375,28 +375,28 @@ def sample_surface(surface: Surface, *, size: int) -> SurfaceImage:
     return SurfaceImage(samples, matrix, covered)
 
 
+def _cut_positions(surface: Surface) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """The cut mesh's vertices that are the surface's own (not a filled hole's centre), and
+    the distinct position of each."""
+    cut = surface.map.cut.mesh
+    real = np.flatnonzero(cut.origin < len(surface.clean_to_position))
+    return real, surface.clean_to_position[cut.origin[real]]
+
+
 def surface_basis(surface: Surface, *, size: int) -> sp.csr_matrix:
-    """Each distinct position's bilinear weights on the ``size``-square grid, at its UV.
+    """Each distinct position's bilinear weights on the ``size``-square grid (N), at its UV.
 
     The reverse of :func:`sample_surface`'s matrix: ``basis @ c`` spreads values ``c`` on the
     grid points (an (N², k) array) onto the positions, bilinearly at each position's place in
     the map.  A position the cut splits has a UV on each side; it takes the mean of their
     weights.  Positions outside the mapped component (other components) get an empty row.
 
-    Parameters
-    ----------
-    surface : Surface
-    size : int
-        N.
-
     Returns
     -------
     (p, N²) scipy.sparse.csr_matrix of float64
         Rows summing to 1 (0 for an unmapped position).
     """
-    cut = surface.map.cut.mesh
-    real = np.flatnonzero(cut.origin < len(surface.clean_to_position))
-    position = surface.clean_to_position[cut.origin[real]]
+    real, position = _cut_positions(surface)
     copies = np.bincount(position, minlength=len(surface.positions)).astype(np.float64)
     fold = sp.csr_matrix(
         (1.0 / copies[position], (position, np.arange(len(real)))),
