@@ -387,27 +387,33 @@ def _clamp_peaks(
     d = np.array(displacement, dtype=np.float64)
     largest = None
     for _ in range(_PEAK_ROUNDS):
-        above = _PEAK_AIM * KEEP_MAX_PEAK
-        dist, diag = _vertex_distances(positions, faces, d, above=above)
+        dist, diag, largest = _above_aim(positions, faces, d)
         cap = KEEP_MAX_PEAK * diag
         if diag <= 0 or dist.max() <= cap:
-            # The vertices not asked are at most ``above`` times the diagonal away.
-            best = float(dist.max(initial=0.0))
-            largest = best if diag > 0 and best > above * diag else None
             break
+        largest = None  # measured before this round's shrink
         d *= np.minimum(1.0, _PEAK_AIM * cap / np.maximum(dist, 1e-300))[:, None]
     return _Clamped(d, largest)
+
+
+def _above_aim(
+    positions: NDArray[np.float64], faces: NDArray[np.int64], displacement: NDArray[np.float64]
+) -> tuple[NDArray[np.float64], float, float | None]:
+    """:func:`_vertex_distances` of the vertices whose bound passes the peak clamp's aim, the
+    diagonal, and the largest distance (:func:`surface_peak` times the diagonal) where it
+    passes the aim, else None: the vertices not asked are at most the aim away."""
+    above = _PEAK_AIM * KEEP_MAX_PEAK
+    dist, diag = _vertex_distances(positions, faces, displacement, above=above)
+    best = float(dist.max(initial=0.0))
+    return dist, diag, (best if diag > 0 and best > above * diag else None)
 
 
 def _largest_above(
     positions: NDArray[np.float64], faces: NDArray[np.int64], displacement: NDArray[np.float64]
 ) -> float | None:
-    """The largest vertex-to-surface distance (:func:`surface_peak` times the diagonal) where
-    it passes the peak clamp's aim, else None (then only :func:`surface_peak` finds it)."""
-    above = _PEAK_AIM * KEEP_MAX_PEAK
-    dist, diag = _vertex_distances(positions, faces, displacement, above=above)
-    best = float(dist.max(initial=0.0))
-    return best if diag > 0 and best > above * diag else None
+    """:func:`_above_aim`'s largest distance, or None (then only :func:`surface_peak` finds
+    it)."""
+    return _above_aim(positions, faces, displacement)[2]
 
 
 def _along_normals(
