@@ -132,8 +132,10 @@ def normal_rms(
     -------
     float
     """
-    along, diag = _along_normals(positions, faces, displacement)
-    area = _frame(positions, faces).area
+    frame = _frame(positions, faces)
+    along = np.einsum("ij,ij->i", frame.normals, displacement)
+    diag = _host(positions, np.asarray(faces, dtype=np.int64)).diag
+    area = frame.area
     if diag <= 0 or area.sum() <= 0:
         return 0.0
     return float(np.sqrt(np.sum(area * along**2) / area.sum())) / diag
@@ -414,15 +416,6 @@ def _largest_above(
     """:func:`_above_aim`'s largest distance, or None (then only :func:`surface_peak` finds
     it)."""
     return _above_aim(positions, faces, displacement)[2]
-
-
-def _along_normals(
-    positions: NDArray[np.float64], faces: NDArray[np.int64], displacement: NDArray[np.float64]
-) -> tuple[NDArray[np.float64], float]:
-    """Each vertex's displacement along its normal, and the used vertices' bbox diagonal."""
-    normals = _frame(positions, faces).normals
-    along = np.einsum("ij,ij->i", normals, displacement)
-    return along, _host(positions, np.asarray(faces, dtype=np.int64)).diag
 
 
 class _Attempt(NamedTuple):
