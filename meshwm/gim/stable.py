@@ -212,6 +212,49 @@ def _repeat(
     return out
 
 
+def _repeat_near(
+    localised: tuple[NDArray[np.int64] | None, sp.csr_matrix], x: NDArray[np.float64], times: int
+) -> NDArray[np.float64]:
+    """:func:`_repeat` of the localised matrix's *transpose* (``matrix.T.tocsr()``), the same
+    bits, in time proportional to the rows ``x`` reaches rather than to the matrix.
+
+    Each row of a CSR product is a sum from ``+0.0`` of its terms in their stored order (the
+    transpose's row ``i``: ``M[j, i] y[j]`` by ascending ``j``), and a partial sum from
+    ``+0.0`` is never ``-0.0``, so a zero term (``y[j] = ±0``) leaves it as it is: only the
+    rows ``j`` where ``y`` is nonzero need be read, and a row no such ``j`` reaches is
+    ``+0.0``, as in the whole product.  So each step multiplies the rows of ``M`` at the
+    nonzero rows of ``y``, transposed (which keeps ascending ``j`` in every row).
+    (:func:`nudge_start`'s ``Pᵀg`` starts on two vertices: at 2.1M vertices 50 whole products
+    took 3.2 s for a bump on 7,189 vertices.)
+    """
+    order, matrix = localised
+    n = matrix.shape[0]
+    y = np.asarray(x if order is None else x[order], dtype=np.float64)
+    rows = np.flatnonzero(np.any(y != 0, axis=1))
+    values = y[rows]
+    done = 0
+    while done < times and 8 * len(rows) <= n:
+        block = matrix[rows]
+        columns, local = np.unique(block.indices, return_inverse=True)
+        block = sp.csr_matrix(
+            (block.data, local.ravel(), block.indptr), shape=(len(rows), len(columns))
+        )
+        values = block.T.tocsr() @ values
+        rows = columns
+        done += 1
+    out = np.zeros_like(y)
+    out[rows] = values
+    if done < times:  # reached an eighth of the mesh: the whole product from there
+        transposed = matrix.T.tocsr()
+        for _ in range(times - done):
+            out = transposed @ out
+    if order is None:
+        return out
+    result = np.empty_like(out)
+    result[order] = out
+    return result
+
+
 def _smoothing_step(n: int, faces: NDArray[np.int64], lam: float) -> sp.csr_matrix:
     """One step as one matrix: (1 - lam) v + lam M v where a vertex has neighbours, else v."""
     operator, has_neighbours = uniform_smoothing_operator(n, faces)
@@ -256,9 +299,10 @@ def nudge_start(
     g = np.zeros_like(vertices)
     g[source] = offset[source] / radial[source]
     g[rival] = -offset[rival] / radial[rival]
-    # Pᵀ is the kept step's transpose, in the same local order as the step itself.
+    # Pᵀ is the kept step's transpose, in the same local order as the step itself; g lives on
+    # two vertices, and each step spreads it one ring only (_repeat_near).
     order, local = _step(len(vertices), faces, lam)
-    g = _repeat((order, local.T.tocsr()), g, int(steps))
+    g = _repeat_near((order, local), g, int(steps))
     norm2 = float((g * g).sum())
     return None if norm2 <= 0 else (deficit / norm2) * g
 

@@ -284,3 +284,28 @@ def test_smoothing_a_large_mesh_in_local_order_gives_the_plain_loops_bits():
     for _ in range(50):
         plain = step @ plain
     np.testing.assert_array_equal(stable.smoothed_copy(v, faces), plain)
+
+
+@pytest.mark.parametrize("rows", [65_000, 400])
+def test_the_transposed_steps_from_a_few_vertices_give_the_whole_products_bits(rows):
+    # nudge_start's Pᵀg starts on two vertices: only the rows it reaches are multiplied, and
+    # the result is the whole product's bit for bit (signed zeros included), in local order
+    # (a large mesh) and as given (a small one, where the reach soon passes an eighth and
+    # the whole product takes over).
+    from meshwm.gim import stable
+    from meshwm.gim.code import grid_faces
+
+    n = int(np.sqrt(rows)) + 1
+    rng = np.random.default_rng(5)
+    faces = np.argsort(rng.permutation(n * n))[grid_faces(n)]
+    localised = stable._localised(stable._smoothing_step(n * n, faces, 0.5))
+    assert (localised[0] is not None) == (n * n > stable._LOCAL_ROWS)
+    x = np.zeros((n * n, 3))
+    x[rng.choice(n * n, 2, replace=False)] = rng.normal(size=(2, 3))
+    x[rng.integers(n * n), 1] = -0.0
+    order, local = localised
+    whole = stable._repeat((order, local.T.tocsr()), x, 50)
+    near = stable._repeat_near(localised, x, 50)
+    np.testing.assert_array_equal(near.view(np.uint64), whole.view(np.uint64))
+    reached = np.count_nonzero(np.any(near != 0, axis=1))
+    assert 0 < reached < n * n if n * n > stable._LOCAL_ROWS else reached == n * n
