@@ -145,7 +145,7 @@ def tutte_map(faces: NDArray[np.int64], rank: NDArray[np.int64]) -> NDArray[np.f
         raise MeshError(f"the disk's boundary has {len(loop)} vertices, fewer than 4")
     uv = np.zeros((k, 2))
     uv[loop] = _square(len(loop))
-    edges, _ = unique_edges(faces)
+    edges, _ = unique_edges(faces, keep=False)  # the cut mesh's, asked for once
     adjacency = sp.coo_matrix(
         (np.ones(2 * len(edges)), (edges.T.ravel(), edges[:, ::-1].T.ravel())), shape=(k, k)
     ).tocsr()

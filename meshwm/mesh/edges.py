@@ -189,18 +189,22 @@ def distinct_rows(rows: NDArray) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
 _DISTINCT = LastResult()
 
 
-def unique_edges(faces: NDArray[np.int64]) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+def unique_edges(
+    faces: NDArray[np.int64], *, keep: bool = True
+) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
     """Unique undirected edges and, per face corner-edge (m*k), the index of its edge.
 
     Corner-edge ``k*f + j`` goes from ``faces[f, j]`` to ``faces[f, (j+1) % k]`` (triangles,
     ``k = 3``; any polygon width, an edge list included).  The edges are ``(low, high)`` pairs
     in lexicographic order.  The arrays are read-only: the last faces' edges are kept (by a
-    digest of the faces) and handed out again for the same faces.
+    digest of the faces) and handed out again for the same faces.  ``keep=False``: found as
+    kept, else computed and not kept (faces asked for once, which would only push out the
+    kept ones: the surface map's cut mesh, between the cleaned mesh's calls).
     """
     faces = np.asarray(faces, dtype=np.int64)
     if len(faces) == 0:
         return np.zeros((0, 2), dtype=np.int64), np.zeros(0, dtype=np.int64)
-    edges, inverse, _ = _edges_of(faces)
+    edges, inverse, _ = _edges_of(faces, keep=keep)
     return edges, inverse
 
 
@@ -216,13 +220,17 @@ def corner_edges_by_edge(faces: NDArray[np.int64]) -> NDArray[np.int64]:
 
 
 def _edges_of(
-    faces: NDArray[np.int64],
+    faces: NDArray[np.int64], *, keep: bool = True
 ) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.int64] | None]:
     key = arrays_key(faces)
     found: tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.int64] | None] | None
     found = _EDGES.get(key)
     if found is None:
         edges, inverse, order = _unique_edges(faces)
+        if not keep:
+            edges.flags.writeable = False
+            inverse.flags.writeable = False
+            return edges, inverse, order
         # The order is 240 MB at 5M vertices, kept through the embedding's peak.
         found = (edges, inverse, order if inverse.size <= _ORDER_MEMO_SIZE else None)
         for a in found:
