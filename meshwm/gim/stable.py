@@ -494,7 +494,7 @@ def _edges_from(
     smooth: NDArray[np.float64], faces: NDArray[np.int64], source: int
 ) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
     """The source's neighbours, longest smoothed edge first, and the edges' lengths."""
-    nbrs = np.unique(faces[np.any(faces == source, axis=1)])
+    nbrs = np.unique(faces[np.flatnonzero(faces.ravel() == source) // faces.shape[1]])
     nbrs = nbrs[nbrs != source]
     length = np.linalg.norm(smooth[nbrs] - smooth[source], axis=1)
     order = np.argsort(-length, kind="stable")
