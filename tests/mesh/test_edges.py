@@ -111,6 +111,24 @@ def test_unique_edges_and_their_corner_order_are_the_plain_definitions(keep_orde
             assert not edges.flags.writeable and not got.flags.writeable
 
 
+def test_unique_edges_not_kept_leave_the_kept_ones():
+    """``keep=False``: the same arrays, and the faces kept before are still the kept ones."""
+    from meshwm.mesh import edges as module
+    from meshwm.mesh.edges import unique_edges
+
+    rng = np.random.default_rng(8)
+    kept = rng.integers(0, 40, (60, 3))
+    once = rng.integers(0, 40, (70, 3))
+    first = unique_edges(kept)
+    fresh = module._unique_edges(once)
+    edges, inverse = unique_edges(once, keep=False)
+    assert np.array_equal(edges, fresh[0]) and np.array_equal(inverse, fresh[1])
+    assert not edges.flags.writeable and not inverse.flags.writeable
+    again = unique_edges(kept)  # handed out again, not computed
+    assert again[0] is first[0] and again[1] is first[1]
+    assert unique_edges(once, keep=False)[0] is not edges  # not kept: computed again
+
+
 def test_distinct_rows_kept_for_the_same_bytes_only():
     v = np.array([[1.0, 0.0], [0.0, 2.0], [1.0, 0.0]])
     first, inverse = distinct_rows(v)
