@@ -16,6 +16,7 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
+from meshwm._digest import LastResult, arrays_key
 from meshwm._vector import face_cross, row_norm
 from meshwm.errors import MeshError
 
@@ -68,6 +69,24 @@ def boundary_loops(faces: NDArray[np.int64]) -> list[NDArray[np.int64]]:
     [[0, 1, 2, 3]]
     """
     faces = np.asarray(faces, dtype=np.int64)
+    key = arrays_key(faces)
+    loops: list[NDArray[np.int64]] | None = _LOOPS.get(key)
+    if loops is None:
+        loops = _boundary_loops(faces)
+        for loop in loops:
+            loop.flags.writeable = False
+        _LOOPS.put(key, loops)
+    return list(loops)
+
+
+#: The last faces' loops (read-only), by a digest of the faces: an embedding asks for the
+#: loops of one connectivity three times (its input's map, the start check, the read-back's
+#: map), two sorts of the half-edges each (2.1M vertices: 1 s a call).
+_LOOPS = LastResult()
+
+
+def _boundary_loops(faces: NDArray[np.int64]) -> list[NDArray[np.int64]]:
+    """:func:`boundary_loops`, computed."""
     n = int(faces.max()) + 1 if len(faces) else 0
     a, b = faces.ravel(), faces[:, [1, 2, 0]].ravel()
     # A half-edge a -> b is on the border when no face has b -> a.  Both keys sorted, so the

@@ -27,6 +27,23 @@ def test_loops_of_a_grid_with_a_hole():
     assert loop_length(v, loops[0]) == pytest.approx(24.0)  # the outer square, listed first
 
 
+def test_loops_are_kept_for_the_last_faces_and_found_again_for_other_faces():
+    from meshwm.gim import holes
+
+    v, f = _grid(6)
+    centre = np.all(np.abs(v[f].mean(axis=1)[:, :2] - 3.0) < 1.0, axis=1)
+    faces = f[~centre]
+    first = boundary_loops(faces)
+    again = boundary_loops(faces.copy())  # equal faces: the kept loops, read-only
+    assert [a is b for a, b in zip(first, again, strict=True)] == [True, True]
+    assert not any(loop.flags.writeable for loop in again)
+    fresh = holes._boundary_loops(faces)
+    assert [loop.tolist() for loop in again] == [loop.tolist() for loop in fresh]
+    assert [len(loop) for loop in boundary_loops(f)] == [24]  # other faces: computed
+    again.pop()  # the list handed out is the caller's own
+    assert len(boundary_loops(f)) == 1
+
+
 def test_fill_keeps_the_long_border_and_fills_the_rest():
     v, f = _grid(6)
     centre = np.all(np.abs(v[f].mean(axis=1)[:, :2] - 3.0) < 1.0, axis=1)
