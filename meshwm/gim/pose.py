@@ -121,7 +121,7 @@ def canonical_pose(vertices: NDArray[np.float64], faces: NDArray[np.int64]) -> P
     # Signs: positive third moment along the first two axes (vertex centroids of the faces,
     # area-weighted, suffice to orient them), the third by right-handedness.
     mid = (sums / 3.0) @ axes
-    third = np.sum(weight[:, None] * mid**3, axis=0)
+    third = np.sum(weight[:, None] * (mid * mid * mid), axis=0)  # not ``**3``: libm's pow
     for k in range(2):
         if third[k] < 0:
             axes[:, k] = -axes[:, k]

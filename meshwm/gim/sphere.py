@@ -220,7 +220,9 @@ def _signings(
 ) -> list[NDArray[np.float64]]:
     """The frame's sign choices: positive third moments, both signs where it is a near-tie."""
     along = rel @ frame
-    third = np.mean(along**3, axis=0) / np.maximum(values, 1e-300) ** 1.5
+    # Cubed by two products, not ``**3`` (libm's pow: 0.17 s a pose at 0.5M points, against
+    # 6 ms); the moments differ in their last bits, which only their signs and the margin use.
+    third = np.mean(along * along * along, axis=0) / np.maximum(values, 1e-300) ** 1.5
     choices: list[tuple[float, ...]] = [()]
     for k in range(2):
         own = 1.0 if third[k] >= 0 else -1.0
