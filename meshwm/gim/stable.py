@@ -205,6 +205,11 @@ def _repeat(
     y = x if order is None else x[order]
     for _ in range(times):
         y = matrix @ y
+    return _in_given_order(order, y)
+
+
+def _in_given_order(order: NDArray[np.int64] | None, y: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Rows of ``y`` in :func:`_localised`'s ``order`` put back in the matrix's own order."""
     if order is None:
         return y
     out = np.empty_like(y)
@@ -248,11 +253,7 @@ def _repeat_near(
         transposed = matrix.T.tocsr()
         for _ in range(times - done):
             out = transposed @ out
-    if order is None:
-        return out
-    result = np.empty_like(out)
-    result[order] = out
-    return result
+    return _in_given_order(order, out)
 
 
 def _smoothing_step(n: int, faces: NDArray[np.int64], lam: float) -> sp.csr_matrix:
