@@ -227,15 +227,12 @@ def _edges_of(
     found = _EDGES.get(key)
     if found is None:
         edges, inverse, order = _unique_edges(faces)
+        for a in (edges, inverse, order):
+            a.flags.writeable = False
         if not keep:
-            edges.flags.writeable = False
-            inverse.flags.writeable = False
             return edges, inverse, order
         # The order is 240 MB at 5M vertices, kept through the embedding's peak.
         found = (edges, inverse, order if inverse.size <= _ORDER_MEMO_SIZE else None)
-        for a in found:
-            if a is not None:
-                a.flags.writeable = False
         _EDGES.put(key, found)
     return found
 
