@@ -278,10 +278,9 @@ def keep_start(
     d = np.asarray(displacement, dtype=np.float64)
     bump = np.zeros_like(d)
     total = d
-    loops = boundary_loops(clean_faces)  # the connectivity's: the same every round
     for round_ in range(rounds + 1):
         moved = (surface.positions + total)[surface.clean_to_position]
-        points, faces = _filled(moved, clean_faces, loops)
+        points, faces = _filled(moved, clean_faces)
         if not np.array_equal(faces, filled_faces):
             return None
         if cut_start(points, faces)[0] == want:
@@ -302,13 +301,11 @@ def _map_faces(surface: Surface) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
 
 
 def _filled(
-    vertices: NDArray[np.float64],
-    faces: NDArray[np.int64],
-    loops: list[NDArray[np.int64]] | None = None,
+    vertices: NDArray[np.float64], faces: NDArray[np.int64]
 ) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
-    """A cleaned component's points and faces with its holes filled (:func:`_map_filled`);
-    ``loops``: its :func:`~meshwm.gim.holes.boundary_loops`, where known."""
-    filled = fill_holes(vertices, faces, boundary_loops(faces) if loops is None else loops)
+    """A cleaned component's points and faces with its holes filled (:func:`_map_filled`;
+    the loops of the same faces are kept by :func:`~meshwm.gim.holes.boundary_loops`)."""
+    filled = fill_holes(vertices, faces, boundary_loops(faces))
     points = np.concatenate([vertices, filled.centres]) if len(filled.centres) else vertices
     return points, filled.faces
 
