@@ -319,7 +319,7 @@ def test_the_marked_mesh_keeps_the_inputs_cut_start(spot_mesh):
     v, f = spot_mesh
     before = surface_of(v, f)
     seen = set()
-    for key in ("k0", "k2"):  # (with these keys: tipped and put back; not tipped)
+    for key in ("k1", "k2"):  # (with these keys: tipped and put back; not tipped)
         marked = embed(v, f, key=key, ident=bytes(8), distances=False)
         seen.add(marked.report["start"])
         after = surface_of(marked.vertices, f)
@@ -365,3 +365,22 @@ def test_a_mesh_moved_through_the_grid_basis_reads_blind(kitten_mesh, monkeypatc
 
 def test_the_grid_basis_is_chosen_by_density(kitten_marked):
     assert kitten_marked[2].report["transfer"] == "vertices"  # 9k vertices: their own moves
+
+
+def test_a_mark_over_the_distortion_target_is_brought_down_to_it(spot_mesh, monkeypatch):
+    # Uncalibrated, the profile's first step moves spot a third over the target; the surface
+    # mark is scaled down to it (the radial carrier and the peak clamp add under 2 %), and the
+    # scaled mark still reads back blind.
+    import meshwm.watermark.keep as keep
+    from meshwm.params import WatermarkParams
+
+    target = WatermarkParams().options.distortion
+    monkeypatch.setattr(keep, "_CALIBRATION_ROUNDS", 0)
+    seen = []
+    measure = keep._rms_along
+    monkeypatch.setattr(keep, "_rms_along", lambda *a: seen.append(measure(*a)) or seen[-1])
+    v, f = spot_mesh
+    marked = embed(v, f, key=KEY, ident=IDENT, distances=False)
+    assert seen[0] > 1.1 * target  # the mark as made: over the target
+    assert 0.98 * target <= marked.report["distortion"] <= 1.02 * target
+    assert Decoder(marked.vertices, f).extract_id(key=KEY).id == IDENT.hex()
