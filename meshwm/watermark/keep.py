@@ -63,7 +63,8 @@ __all__ = [
 KEEP_PASSES = 3
 #: Calibration rounds of the step against the distortion measured on the input's vertices
 #: (dithered quantisation moves a coefficient by a uniform fraction of its step, so the
-#: distortion is nearly proportional to the step: one correction lands within a few percent).
+#: distortion grows with the step, though not in proportion: one correction lands within a
+#: few percent, and a mark still over the target is then scaled down to it).
 _CALIBRATION_ROUNDS = 1
 #: Passes beyond :data:`KEEP_PASSES` while the mesh does not yet read back every bit.
 _EXTRA_PASSES = 4
