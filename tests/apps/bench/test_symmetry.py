@@ -1,0 +1,92 @@
+"""Tests for :mod:`meshwm.apps.bench.symmetry`: a mesh's exact rotational symmetries, and the
+surface image of the genus-8 plate stable up to its half turn."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from meshwm.apps.bench.symmetry import proper_symmetries, up_to_symmetry
+from meshwm.apps.bench.synthetic import make
+from meshwm.gim.surface import sample_surface, surface_of
+from meshwm.metrics import bounding_box_diagonal
+
+
+@pytest.fixture(scope="module")
+def plate():
+    return make("genus8")
+
+
+def _moved(rng, v, f):
+    """A random similarity (uniform rotation, scale 0.01-100, shift ±100), vertices and faces
+    shuffled; the moved mesh, the rotation and the map back."""
+    q, _ = np.linalg.qr(rng.normal(size=(3, 3)))
+    q *= np.sign(np.linalg.det(q))
+    scale = 10.0 ** rng.uniform(-2, 2)
+    shift = rng.uniform(-100, 100, 3)
+    perm = rng.permutation(len(v))
+    inverse = np.empty_like(perm)
+    inverse[perm] = np.arange(len(v))
+    moved = (scale * v @ q.T + shift)[perm]
+    faces = inverse[f][rng.permutation(len(f))]
+    return moved, faces, q, lambda x: ((x - shift) / scale) @ q
+
+
+def test_the_plate_has_its_half_turn_and_nothing_else(plate):
+    v, f = plate
+    found = proper_symmetries(v, f)
+    assert len(found) == 2
+    np.testing.assert_allclose(found[0], np.eye(3))
+    half = found[1]
+    # A half turn: symmetric, orthogonal, trace -1, about the plate's normal (z).
+    np.testing.assert_allclose(half @ half, np.eye(3), atol=1e-12)
+    assert abs(np.trace(half) + 1) < 1e-9 and half[2, 2] > 1 - 1e-9
+
+
+def test_a_jitter_or_a_scan_has_none(kitten_mesh):
+    assert len(proper_symmetries(*make("genus8_jittered"))) == 1
+    assert len(proper_symmetries(*kitten_mesh)) == 1
+
+
+def test_the_half_turn_is_found_in_any_pose(plate):
+    v, f = plate
+    half = proper_symmetries(v, f)[1]
+    rng = np.random.default_rng(4)
+    for _ in range(6):
+        mv, mf, q, _ = _moved(rng, v, f)
+        found = proper_symmetries(mv, mf)
+        assert len(found) == 2
+        np.testing.assert_allclose(found[1], q @ half @ q.T, atol=1e-8)
+
+
+def test_a_reversed_face_is_not_a_symmetry(plate):
+    v, f = plate
+    g = f.copy()
+    g[0] = g[0, ::-1]  # one face wound the other way: the half turn no longer maps faces
+    assert len(proper_symmetries(v, g)) == 1
+
+
+def test_the_surface_image_is_the_inputs_up_to_the_half_turn(plate):
+    """Rounding decides between the plate's two cut starts (each other's half turn), so about
+    half the similarities give the input's image turned; none gives another image."""
+    v, f = plate
+    turns = proper_symmetries(v, f)
+    centre = v.mean(axis=0)
+    diag = bounding_box_diagonal(v)
+    base = sample_surface(surface_of(v, f), size=128).samples
+    rng = np.random.default_rng(13)
+    exact = 0
+    for _ in range(12):
+        mv, mf, _, back = _moved(rng, v, f)
+        got = back(sample_surface(surface_of(mv, mf), size=128).samples.reshape(-1, 3))
+        got = got.reshape(base.shape)
+        assert up_to_symmetry(got, base, turns, centre) < 1e-9 * diag
+        exact += up_to_symmetry(got, base, turns[:1], centre) < 1e-9 * diag
+    assert 0 < exact < 12  # both of the two images occur: the tie is real
+
+
+def test_images_that_cover_other_samples_differ():
+    im = np.zeros((2, 2, 3))
+    other = im.copy()
+    other[0, 0] = np.nan
+    assert up_to_symmetry(other, im, [np.eye(3)], np.zeros(3)) == np.inf
