@@ -665,8 +665,8 @@ def embed_kept(
             # Not a weak mark but another map: the marked mesh's own cut is not the input's.
             raise CapacityError(
                 f"this mesh does not carry a blind mark: read back, its surface map gives "
-                f"{ber:.0%} wrong bits, as another map would; a symmetric shape (a sphere, a "
-                f"capsule, a cube) has no cut start of its own, and the mark decides it"
+                f"{ber:.0%} wrong bits, as another map would; a symmetric shape (a torus, a "
+                f"cylinder, a sphere) may have no cut start of its own, and the mark decides it"
             )
         worst = min(worst, ber)
     raise CapacityError(

@@ -7,6 +7,7 @@ import pytest
 from numpy.testing import assert_array_equal
 
 from meshwm.attacks import apply_attack
+from meshwm.gim.sphere import point_poses, point_set
 from meshwm.message.payload import encode_id
 from meshwm.watermark import Decoder
 from meshwm.watermark.keep import normal_rms
@@ -95,12 +96,27 @@ def test_the_size_follows_the_payload():
 
 
 def test_a_settled_carrier_stops_early_and_still_sits_on_its_lattice(kitten_mesh):
-    # A pass that moves no projection by a hundredth of a step is the last: kitten settles
-    # before the last pass, and the projections a reader derives sit on their lattice points.
+    # The moves keep the pose to first order, so one move settles kitten: the second pass
+    # finds every projection within a hundredth of a step and moves nothing; the projections a
+    # reader derives sit on their lattice points.
     v, f = kitten_mesh
     mark = embed_radial(v, f, BITS, key=KEY)
-    assert mark.report["radial_passes"] < 3
+    assert mark.report["radial_passes"] == 1
     assert mark.report["radial_ber"] == 0
     got, confidence, _ = radial_read(mark.vertices, f, len(BITS), key=KEY)
     assert_array_equal(got, BITS)
     assert np.abs(confidence).min() > 0.999  # within a thousandth of a step
+
+
+@pytest.mark.parametrize("name", ["spot", "kitten"])
+def test_the_move_keeps_the_pose_it_was_made_in(name, spot_mesh, kitten_mesh):
+    # One move, no second pass: the centroid, axes and scale of the moved point set are the
+    # input's to second order (unconstrained, spot's moved by 5e-6 of its radius).
+    v, f = {"spot": spot_mesh, "kitten": kitten_mesh}[name]
+    mark = embed_radial(v, f, BITS, key=KEY, passes=0)
+    before = point_poses(point_set(v, f).points)[0]
+    after = point_poses(point_set(mark.vertices, f).points)[0]
+    assert np.abs(mark.vertices - v).max() > 1e-4 * before.scale  # it did move
+    assert np.linalg.norm(after.centre - before.centre) < 1e-10 * before.scale
+    assert np.abs(after.rotation - before.rotation).max() < 1e-7
+    assert abs(after.scale / before.scale - 1) < 1e-7
