@@ -29,7 +29,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from meshwm.apps.bench.symmetry import proper_symmetries, up_to_symmetry
+from meshwm.apps.bench.symmetry import proper_symmetries, random_similarity, up_to_symmetry
 from meshwm.apps.bench.synthetic import SYNTHETIC, make
 from meshwm.gim.remesh import mesh_to_geometry_image
 from meshwm.gim.sphere import point_poses, point_set, sphere_sampling
@@ -43,16 +43,8 @@ DEV = [p.stem for p in sorted(MESHES.glob("*.ply"))] + list(SYNTHETIC)
 
 def similarity(rng: np.random.Generator, v: np.ndarray, f: np.ndarray):
     """A random similarity and shuffle; returns the moved mesh and the map back."""
-    q, _ = np.linalg.qr(rng.normal(size=(3, 3)))
-    q *= np.sign(np.linalg.det(q))
-    scale = 10.0 ** rng.uniform(-2, 2)
-    shift = rng.uniform(-100, 100, 3)
-    perm = rng.permutation(len(v))
-    inverse = np.empty_like(perm)
-    inverse[perm] = np.arange(len(v))
-    moved = (scale * v @ q.T + shift)[perm]
-    faces = inverse[f][rng.permutation(len(f))]
-    return moved, faces, lambda x: ((x - shift) / scale) @ q
+    moved, faces, _, back = random_similarity(rng, v, f)
+    return moved, faces, back
 
 
 def surface_image(v: np.ndarray, f: np.ndarray) -> np.ndarray:

@@ -18,11 +18,13 @@ one of the ``k`` images a reader cannot tell apart, as the mesh cannot.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial import cKDTree
 
-__all__ = ["proper_symmetries", "up_to_symmetry"]
+__all__ = ["proper_symmetries", "random_similarity", "up_to_symmetry"]
 
 #: Two principal moments closer than this (relative to the largest) are tied: rotations about
 #: the third axis by ``2π/k`` are tried.
@@ -142,3 +144,49 @@ def up_to_symmetry(
         return float("inf")
     a, b = got[both], image[both] - centre
     return min(float(np.abs(a - (centre + b @ r.T)).max()) for r in rotations)
+
+
+def random_similarity(
+    rng: np.random.Generator, vertices: NDArray, faces: NDArray
+) -> tuple[
+    NDArray[np.float64],
+    NDArray[np.int64],
+    NDArray[np.float64],
+    Callable[[NDArray[np.float64]], NDArray[np.float64]],
+]:
+    """A random similarity of a mesh, its vertices and faces shuffled (issue 13's stability
+    trials): a uniformly random rotation, scale 0.01-100, translation ±100.
+
+    Returns
+    -------
+    moved : (n, 3) float64 ndarray
+    faces : (m, 3) int64 ndarray
+        The faces over ``moved``, in a random order.
+    rotation : (3, 3) float64 ndarray
+    back : callable
+        Points of the moved pose taken back to the input's.
+
+    Examples
+    --------
+    >>> v = np.eye(3)
+    >>> mv, mf, q, back = random_similarity(np.random.default_rng(0), v, np.array([[0, 1, 2]]))
+    >>> bool(np.allclose(np.sort(back(mv), axis=0), np.sort(v, axis=0)))
+    True
+    """
+    v = np.asarray(vertices, dtype=np.float64)
+    f = np.asarray(faces, dtype=np.int64)
+    q, _ = np.linalg.qr(rng.normal(size=(3, 3)))
+    q *= np.sign(np.linalg.det(q))
+    scale = 10.0 ** rng.uniform(-2, 2)
+    shift = rng.uniform(-100, 100, 3)
+    perm = rng.permutation(len(v))
+    inverse = np.empty_like(perm)
+    inverse[perm] = np.arange(len(v))
+    moved = (scale * v @ q.T + shift)[perm]
+    moved_faces = inverse[f][rng.permutation(len(f))]
+
+    def back(x: NDArray[np.float64]) -> NDArray[np.float64]:
+        out: NDArray[np.float64] = ((x - shift) / scale) @ q
+        return out
+
+    return moved, moved_faces, q, back

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from meshwm.apps.bench.symmetry import proper_symmetries, up_to_symmetry
+from meshwm.apps.bench.symmetry import proper_symmetries, random_similarity, up_to_symmetry
 from meshwm.apps.bench.synthetic import make
 from meshwm.gim.surface import sample_surface, surface_of
 from meshwm.metrics import bounding_box_diagonal
@@ -15,21 +15,6 @@ from meshwm.metrics import bounding_box_diagonal
 @pytest.fixture(scope="module")
 def plate():
     return make("genus8")
-
-
-def _moved(rng, v, f):
-    """A random similarity (uniform rotation, scale 0.01-100, shift ±100), vertices and faces
-    shuffled; the moved mesh, the rotation and the map back."""
-    q, _ = np.linalg.qr(rng.normal(size=(3, 3)))
-    q *= np.sign(np.linalg.det(q))
-    scale = 10.0 ** rng.uniform(-2, 2)
-    shift = rng.uniform(-100, 100, 3)
-    perm = rng.permutation(len(v))
-    inverse = np.empty_like(perm)
-    inverse[perm] = np.arange(len(v))
-    moved = (scale * v @ q.T + shift)[perm]
-    faces = inverse[f][rng.permutation(len(f))]
-    return moved, faces, q, lambda x: ((x - shift) / scale) @ q
 
 
 def test_the_plate_has_its_half_turn_and_nothing_else(plate):
@@ -53,7 +38,7 @@ def test_the_half_turn_is_found_in_any_pose(plate):
     half = proper_symmetries(v, f)[1]
     rng = np.random.default_rng(4)
     for _ in range(6):
-        mv, mf, q, _ = _moved(rng, v, f)
+        mv, mf, q, _ = random_similarity(rng, v, f)
         found = proper_symmetries(mv, mf)
         assert len(found) == 2
         np.testing.assert_allclose(found[1], q @ half @ q.T, atol=1e-8)
@@ -77,7 +62,7 @@ def test_the_surface_image_is_the_inputs_up_to_the_half_turn(plate):
     rng = np.random.default_rng(13)
     exact = 0
     for _ in range(12):
-        mv, mf, _, back = _moved(rng, v, f)
+        mv, mf, _, back = random_similarity(rng, v, f)
         got = back(sample_surface(surface_of(mv, mf), size=128).samples.reshape(-1, 3))
         got = got.reshape(base.shape)
         assert up_to_symmetry(got, base, turns, centre) < 1e-9 * diag
