@@ -115,10 +115,7 @@ def main() -> None:
                 mv, mf, back = similarity(rng, v, f)
                 got = back(image(mv, mf).reshape(-1, 3)).reshape(base.shape)
                 up_to += up_to_symmetry(got, base, turns, centre) / diag <= 1e-9
-                both = np.isfinite(got) & np.isfinite(base)
-                holes_agree = bool(np.array_equal(np.isfinite(got), np.isfinite(base)))
-                diff = float(np.abs(got - base)[both].max()) / diag if both.any() else np.inf
-                diff = diff if holes_agree else np.inf
+                diff = up_to_symmetry(got, base, turns[:1], centre) / diag  # as it is
                 worst = max(worst, diff)
                 same += diff <= 1e-9
             lines.append(

@@ -102,8 +102,8 @@ def _moments(sampling: SphereSampling) -> NDArray[np.float64]:
     under radial moves of ``delta`` radius units, each row of unit norm.
 
     A point at ``c + r u`` moved to ``c + (r + t) u`` moves the centroid by ``t u / p`` and the
-    second moments by ``t r (u uᵀ + u uᵀ) / p`` (the centroid kept), so the moves that keep
-    these nine sums keep the pose (its centre, axes and scale) to first order.
+    second moments by ``2 t r u uᵀ / p`` (to first order, the centroid kept), so the moves that
+    keep these nine sums keep the pose (its centre, axes and scale) to first order.
     """
     u = sampling.directions
     r = sampling.radii

@@ -24,6 +24,8 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial import cKDTree
 
+from meshwm.gim.stable import _canonical_faces
+
 __all__ = ["proper_symmetries", "random_similarity", "up_to_symmetry"]
 
 #: Two principal moments closer than this (relative to the largest) are tied: rotations about
@@ -38,14 +40,6 @@ def _rotation(axis: NDArray[np.float64], angle: float) -> NDArray[np.float64]:
     x, y, z = axis
     k = np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
     return np.eye(3) + np.sin(angle) * k + (1.0 - np.cos(angle)) * (k @ k)
-
-
-def _canonical_faces(faces: NDArray[np.int64]) -> NDArray[np.int64]:
-    """Each face turned (winding kept) to start at its smallest index, rows sorted."""
-    first = np.argmin(faces, axis=1)
-    cols = (first[:, None] + np.arange(3)) % 3
-    turned = np.take_along_axis(faces, cols, axis=1)
-    return turned[np.lexsort(turned.T[::-1])]
 
 
 def proper_symmetries(
@@ -93,7 +87,8 @@ def proper_symmetries(
                 _rotation(axes[:, other], 2 * np.pi * m / k) for k in _TURNS for m in range(1, k)
             ]
     tree = cKDTree(rel)
-    own = _canonical_faces(f)
+    labels = np.arange(len(v))
+    own = _canonical_faces(f, labels)
     found = [np.eye(3)]
     for r in candidates:
         if any(np.allclose(r, g, atol=1e-9) for g in found):
@@ -102,7 +97,7 @@ def proper_symmetries(
         dist, lands = tree.query(rel @ r.T, distance_upper_bound=tol * diag)
         if not np.isfinite(dist).all() or len(np.unique(lands)) != len(v):
             continue
-        if np.array_equal(_canonical_faces(lands[f]), own):
+        if np.array_equal(_canonical_faces(lands[f], labels), own):
             found.append(r)
     return found
 
@@ -137,13 +132,13 @@ def up_to_symmetry(
     >>> up_to_symmetry(im @ half.T, im, [np.eye(3), half], np.zeros(3))
     0.0
     """
-    both = np.isfinite(got).all(axis=-1) & np.isfinite(image).all(axis=-1)
-    if not np.array_equal(np.isfinite(got).all(axis=-1), np.isfinite(image).all(axis=-1)):
+    covered = np.isfinite(got).all(axis=-1)
+    if not np.array_equal(covered, np.isfinite(image).all(axis=-1)) or not covered.any():
         return float("inf")
-    if not both.any():
-        return float("inf")
-    a, b = got[both], image[both] - centre
-    return min(float(np.abs(a - (centre + b @ r.T)).max()) for r in rotations)
+    a, b = got[covered], image[covered]
+    # The identity compares the images as they are (no round trip through the centre).
+    turned = [b if np.array_equal(r, np.eye(3)) else centre + (b - centre) @ r.T for r in rotations]
+    return min(float(np.abs(a - t).max()) for t in turned)
 
 
 def random_similarity(
