@@ -41,12 +41,6 @@ MESHES = Path(__file__).resolve().parents[2] / "shared" / "meshes"
 DEV = [p.stem for p in sorted(MESHES.glob("*.ply"))] + list(SYNTHETIC)
 
 
-def similarity(rng: np.random.Generator, v: np.ndarray, f: np.ndarray):
-    """A random similarity and shuffle; returns the moved mesh and the map back."""
-    moved, faces, _, back = random_similarity(rng, v, f)
-    return moved, faces, back
-
-
 def surface_image(v: np.ndarray, f: np.ndarray) -> np.ndarray:
     return sample_surface(surface_of(v, f), size=128).samples
 
@@ -69,7 +63,7 @@ def radial_trials(
     diag = bounding_box_diagonal(v) / point_poses(point_set(v, f).points)[0].scale
     worst, same = 0.0, 0
     for _ in range(trials):
-        mv, mf, _ = similarity(rng, v, f)
+        mv, mf, _, _ = random_similarity(rng, v, f)
         diff = min(float(np.abs(im - base).max()) for im in radial_images(mv, mf)) / diag
         worst = max(worst, diff)
         same += diff <= 1e-9
@@ -112,7 +106,7 @@ def main() -> None:
             rng = np.random.default_rng(2026)
             worst, same, up_to = 0.0, 0, 0
             for _ in range(args.trials):
-                mv, mf, back = similarity(rng, v, f)
+                mv, mf, _, back = random_similarity(rng, v, f)
                 got = back(image(mv, mf).reshape(-1, 3)).reshape(base.shape)
                 up_to += up_to_symmetry(got, base, turns, centre) / diag <= 1e-9
                 diff = up_to_symmetry(got, base, turns[:1], centre) / diag  # as it is

@@ -25,6 +25,7 @@ from numpy.typing import NDArray
 from scipy.spatial import cKDTree
 
 from meshwm.gim.stable import _canonical_faces
+from meshwm.metrics import bounding_box_diagonal
 
 __all__ = ["proper_symmetries", "random_similarity", "up_to_symmetry"]
 
@@ -77,7 +78,7 @@ def proper_symmetries(
     f = np.asarray(faces, dtype=np.int64)
     centre = v.mean(axis=0)
     rel = v - centre
-    diag = float(np.linalg.norm(v.max(axis=0) - v.min(axis=0)))
+    diag = bounding_box_diagonal(v)
     values, axes = np.linalg.eigh(rel.T @ rel / len(rel))
     values, axes = values[::-1], axes[:, ::-1]
     candidates = [_rotation(axes[:, i], np.pi) for i in range(3)]
