@@ -257,3 +257,56 @@ def test_candidates_decode_many_keys_like_fresh_candidates():
     assert received.decode(16, key="k").bits.tolist() == _bits(16).tolist()
     # A weak read (wrong key) went through the unsmoothing candidates, now kept.
     assert received._unsmoothed is not None and len(received._unsmoothed) == 12
+
+
+@pytest.mark.parametrize("n", [64, 256])
+def test_the_three_channels_in_one_transform_are_each_channels_own(n):
+    # _embed_at transforms x, y and z in one pywt call (axes=(0, 1)) and leaves the finer
+    # levels' details as None: the marked image is bit for bit the channel-by-channel
+    # reconstruction with explicit zeros (what it computed before).
+    import pywt
+
+    from meshwm.profiles.robust import embed as module
+    from meshwm.profiles.robust.slots import _layout, _split, _steps, _unit, _values, _wavedec
+
+    gim, bits = _surface(n, seed=3), _bits(64, seed=4)
+    layout = _layout(n, "k", len(bits))
+    cover = _wavedec(gim)
+    approx, _ = _split(cover)
+    frames, scale = local_frames(approx)
+    steps = _steps(approx, layout, 0.05)
+    got = module._embed_at(gim, bits, layout, frames, scale, steps, cover)
+
+    per_channel = [
+        pywt.wavedec2(gim[..., k], "sym4", mode="periodization", level=3) for k in range(3)
+    ]
+    np.testing.assert_array_equal(approx, np.stack([c[0] for c in per_channel], axis=-1))
+    live = scale[layout.row, layout.col] > 0
+    target = bits[layout.bit] / 2.0
+    border = np.zeros((n, n), dtype=bool)
+    border[[0, -1], :] = border[:, [0, -1]] = True
+    marked, want = gim.copy(), None
+    for _ in range(module._ROUNDS):
+        coeffs = [
+            pywt.wavedec2(marked[..., k], "sym4", mode="periodization", level=3) for k in range(3)
+        ]
+        details = np.stack([np.stack([c[1][b] for c in coeffs], axis=-1) for b in range(3)])
+        vals = _values(details, frames, scale, layout)
+        if want is None:
+            t = vals / steps - layout.dither
+            want = vals + module.ALPHA * (np.floor(t - target + 0.5) + target - t) * steps
+        local = np.zeros((3, *scale.shape, 3))
+        local[layout.band, layout.row, layout.col, layout.comp] = np.where(
+            live, want - vals, 0.0
+        ) * _unit(scale, layout)
+        world = np.einsum("ijab,kija->kijb", frames, local)
+        for k in range(3):
+            zero = [np.zeros_like(coeffs[k][0])] + [
+                tuple(np.zeros_like(d) for d in level) for level in coeffs[k][1:]
+            ]
+            zero[1] = tuple(world[b, ..., k] for b in range(3))
+            delta = pywt.waverec2(zero, "sym4", mode="periodization")
+            delta[border] = 0.0
+            marked[..., k] += delta
+    np.testing.assert_array_equal(got, marked)
+    assert not np.array_equal(got, gim)

@@ -134,14 +134,16 @@ def _embed_at(
         local = np.zeros((3, *scale.shape, 3))
         local[layout.band, layout.row, layout.col, layout.comp] = change * _unit(scale, layout)
         world = np.einsum("ijab,kija->kijb", frames, local)
-        for k in range(3):
-            zero = [np.zeros_like(coeffs[k][0])] + [
-                tuple(np.zeros_like(d) for d in lvl) for lvl in coeffs[k][1:]
-            ]
-            zero[1] = tuple(world[b, ..., k] for b in range(3))
-            delta = pywt.waverec2(zero, WAVELET, mode="periodization")
-            delta[border] = 0.0
-            marked[..., k] += delta
+        # The change of the level-3 details alone, all three channels in one call (the finer
+        # levels' details are None: zero, bit for bit, without reconstructing them).
+        delta = pywt.waverec2(
+            [np.zeros_like(coeffs[0]), tuple(world), *[(None, None, None)] * (len(coeffs) - 2)],
+            WAVELET,
+            mode="periodization",
+            axes=(0, 1),
+        )
+        delta[border] = 0.0
+        marked += delta
     return marked
 
 

@@ -42,16 +42,14 @@ class RobustResult(NamedTuple):
 
 
 def _wavedec(gim: NDArray[np.float64]) -> list:
-    return [
-        pywt.wavedec2(gim[..., k], WAVELET, mode="periodization", level=LEVEL) for k in range(3)
-    ]
+    """The sym4 level-3 decomposition of x, y and z in one call (``axes=(0, 1)``: bit for bit
+    the three channels' own decompositions, without three calls' overhead)."""
+    return pywt.wavedec2(gim, WAVELET, mode="periodization", level=LEVEL, axes=(0, 1))
 
 
 def _split(coeffs: list) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """(approximation (m, m, 3), level-3 details (3 bands, m, m, 3)) of per-channel lists."""
-    approx = np.stack([c[0] for c in coeffs], axis=-1)
-    details = np.stack([np.stack([c[1][b] for c in coeffs], axis=-1) for b in range(3)])
-    return approx, details
+    """(approximation (m, m, 3), level-3 details (3 bands, m, m, 3)) of :func:`_wavedec`'s."""
+    return coeffs[0], np.stack(coeffs[1])
 
 
 def local_frames(approx: NDArray) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
