@@ -28,6 +28,7 @@ import scipy.sparse as sp
 from numpy.typing import NDArray
 from scipy.sparse.csgraph import connected_components
 
+from meshwm._digest import LastResult, arrays_key
 from meshwm._validate import DEFAULT_MAX_FACES, check_mesh
 from meshwm.errors import MeshError
 from meshwm.gim.holes import boundary_loops, fill_holes
@@ -347,6 +348,34 @@ def sample_surface(surface: Surface, *, size: int) -> SurfaceImage:
     -------
     SurfaceImage
     """
+    key = (
+        *arrays_key(
+            surface.map.uv,
+            surface.map.cut.mesh.faces,
+            surface.map.cut.mesh.origin,
+            surface.clean_to_position,
+        ),
+        len(surface.positions),
+        int(size),
+    )
+    found = _SAMPLING.get(key)
+    if found is None:
+        found = _sampling_of(surface, size)
+        _SAMPLING.put(key, found)
+    # Copies: the memoised pair is shared (a few entries a row at most: cheap).
+    matrix, covered = found[0].copy(), found[1].copy()
+    samples = np.asarray(matrix @ surface.positions).reshape(size, size, 3)
+    samples[~covered] = np.nan
+    return SurfaceImage(samples, matrix, covered)
+
+
+#: The last map's sampling: the embedder's blind read-back samples the map it reuses again
+#: (the same UVs, faces and positions' numbering: the same matrix, bit for bit).
+_SAMPLING = LastResult()
+
+
+def _sampling_of(surface: Surface, size: int) -> tuple[sp.csr_matrix, NDArray[np.bool_]]:
+    """:func:`sample_surface`'s matrix (distinct positions to covered samples) and mask."""
     cut = surface.map.cut.mesh
     sampling = sampling_matrix(surface.map.uv, cut.faces, size)
     real = cut.origin < len(surface.clean_to_position)  # not a filled hole's centre
@@ -367,9 +396,7 @@ def sample_surface(surface: Surface, *, size: int) -> SurfaceImage:
     rows = sp.diags(covered.ravel().astype(np.float64))
     matrix = sp.csr_matrix(rows @ sampling.matrix @ fold)
     matrix.eliminate_zeros()
-    samples = np.asarray(matrix @ surface.positions).reshape(size, size, 3)
-    samples[~covered] = np.nan
-    return SurfaceImage(samples, matrix, covered)
+    return matrix, covered
 
 
 def _cut_positions(surface: Surface) -> tuple[NDArray[np.int64], NDArray[np.int64]]:

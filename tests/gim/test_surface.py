@@ -133,3 +133,31 @@ def test_the_surface_basis_puts_each_position_at_its_uv(request, name):
     np.add.at(want, position, surface.map.uv[real])
     want[mapped] /= np.bincount(position, minlength=len(want))[mapped, None]
     np.testing.assert_allclose(basis @ grid_points(n), want, atol=1e-12)
+
+
+def test_a_sampling_is_reused_for_the_same_map_only(spot_mesh, kitten_mesh):
+    # The embedder's read-back samples the map it reused again: the memoised matrix is the one
+    # a fresh sampling gives, whatever a caller did to the copy it was handed, and another
+    # map gets its own.
+    from meshwm.gim.surface import _sampling_of
+
+    v, f = spot_mesh
+    base = surface_of(v, f)
+    moved = base.positions + np.random.default_rng(3).normal(size=base.positions.shape) * 1e-4
+    again = surface_of(moved[base.inverse], f, like=base)
+    assert again.map is base.map or np.array_equal(again.map.uv, base.map.uv)
+    first = sample_surface(base, size=64)
+    first.matrix.data[:] = 0.0  # a caller scribbling on its copy
+    first.covered[:] = False
+    second = sample_surface(again, size=64)
+    fresh, covered = _sampling_of(again, 64)
+    assert (second.matrix != fresh).nnz == 0 and second.matrix.nnz == fresh.nnz > 0
+    np.testing.assert_array_equal(second.covered, covered)
+    np.testing.assert_array_equal(
+        second.samples[covered], np.asarray(fresh @ moved)[covered.ravel()]
+    )
+    other = surface_of(*kitten_mesh)
+    mat, cov = _sampling_of(other, 64)
+    got = sample_surface(other, size=64)
+    assert (got.matrix != mat).nnz == 0 and got.matrix.shape != second.matrix.shape
+    np.testing.assert_array_equal(got.covered, cov)
