@@ -28,7 +28,7 @@ from meshwm.errors import MeshError
 from meshwm.gim.cut import argmax_stable
 from meshwm.mesh.edges import border_half_edges, border_loop
 
-__all__ = ["Chains", "Disk", "boundary_chains", "split_corners", "unit_to_uv"]
+__all__ = ["Chains", "Disk", "boundary_chains", "chain_points_at", "split_corners", "unit_to_uv"]
 
 
 class Chains(NamedTuple):
@@ -297,6 +297,37 @@ def boundary_chains(
         steps,
         chain_multiplicity,
     )
+
+
+def chain_points_at(
+    chains: Chains, origin: NDArray[np.int64], positions: NDArray[np.float64]
+) -> list[NDArray[np.float64]]:
+    """``chains.chain_points`` again, each chain's vertices at ``positions``: the same grid
+    steps per chain (``chains.chain_steps``), spaced by arc length along the moved polyline.
+
+    The remesh makes its choices on snapped coordinates and takes its samples from finer ones
+    (:func:`meshwm.gim.remesh.mesh_to_geometry_image`): the steps of each chain are a choice,
+    their points along it are not.
+
+    Parameters
+    ----------
+    chains : Chains
+    origin : (k,) int64 ndarray
+        The input vertex of each cut-mesh vertex (the cut the chains were made on).
+    positions : (v, 3) float64 ndarray
+        A position for every input vertex.
+    """
+    orig = origin[chains.loop]
+    closed = np.concatenate([orig, orig[:1]])
+    seen: set[int] = set()
+    points: list[NDArray[np.float64]] = [np.zeros((0, 3))] * len(chains.chain_steps)
+    for r, c in enumerate(chains.run_chain):
+        if c in seen or chains.run_reversed[r]:
+            continue
+        seen.add(c)
+        seq = closed[chains.run_start[r] : chains.run_start[r + 1] + 1]
+        points[c] = _polyline_points(positions[seq], int(chains.chain_steps[c]))
+    return points
 
 
 def unit_to_uv(t: NDArray[np.float64], n: int) -> NDArray[np.float64]:

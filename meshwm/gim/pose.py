@@ -6,10 +6,20 @@ a rotation's rounding can flip: a random similarity changed its output on 13 of 
 Here the mesh is first brought into a pose computed from its own surface: area centroid at the
 origin, principal axes of the surface's second moments as the coordinate axes (largest first,
 each pointing to the side of positive third moment, right-handed), unit RMS radius; then its
-coordinates are snapped to a grid of :data:`SNAP` (2⁻⁴⁰ of the RMS radius).  Two copies of one
-mesh in different poses thus give canonical coordinates that are bit-identical or one grid step
-apart (a pose far from the origin costs digits: translation ±100 at scale 0.01 leaves ~1e-12 of
-the radius), the remesh is run on those, and its samples are taken back to the input's pose.
+coordinates are snapped to a grid.  Two copies of one mesh in different poses thus give
+canonical coordinates that are bit-identical or one grid step apart (a pose far from the origin
+costs digits: translation ±100 at scale 0.01 leaves ~1e-12 of the radius).
+
+:func:`canonical_mesh` is what the remesh runs on: the coordinates snapped to
+:data:`REMESH_SNAP` (2⁻²⁴ of the RMS radius, far above those digits, so that two poses give
+the same numbers but where a coordinate lies within ~1e-12 of a grid line), the vertices
+numbered by their snapped coordinates and the faces in an order of their own.  Two poses then
+hand the remesh the same arrays, and every choice it makes (a cut path, a corner, a stretch
+maximum) is the same choice, exact ties included: a mesh built on a regular grid (the genus-8
+plate, with every edge of one length) has ties that rounding alone decided before, and a shape
+that a rotation maps onto itself gets the same arrays in both of the poses it is given.  The
+remesh's samples are taken back to the input's pose.  :data:`SNAP` (2⁻⁴⁰) is the spherical
+image's grid (:mod:`meshwm.gim.sphere`).
 
 A shape whose principal moments (nearly) coincide, or whose third moment along an axis is
 (nearly) zero, has no well-defined frame; there the pose is still a similarity, and the remesh is
@@ -25,10 +35,14 @@ from numpy.typing import NDArray
 
 from meshwm._vector import _columns, face_area
 
-__all__ = ["SNAP", "Pose", "canonical_pose"]
+__all__ = ["REMESH_SNAP", "SNAP", "CanonicalMesh", "Pose", "canonical_mesh", "canonical_pose"]
 
 #: Grid the canonical coordinates are snapped to, in units of the RMS radius.
 SNAP = 2.0**-40
+#: Grid of the remesh's coordinates (:func:`canonical_mesh`), in units of the RMS radius: a
+#: move of at most 3e-8 of the radius, far below the remesh's own error (0.2-0.9 % of the
+#: diagonal), far above what a pose's rounding leaves.
+REMESH_SNAP = 2.0**-24
 #: Faces at a time in :func:`canonical_pose`'s sums.
 _POSE_CHUNK = 1 << 16
 
@@ -50,21 +64,33 @@ class Pose(NamedTuple):
 
     def forward(self, points: NDArray[np.float64]) -> NDArray[np.float64]:
         """Input pose to canonical coordinates, snapped to :data:`SNAP`."""
+        return self.snap(points, SNAP)
+
+    def snap(self, points: NDArray[np.float64], grid: float) -> NDArray[np.float64]:
+        """Input pose to canonical coordinates, snapped to ``grid`` (RMS-radius units)."""
         canonical = (np.asarray(points, dtype=np.float64) - self.centre) @ self.rotation
-        return np.round(canonical / (self.scale * SNAP)) * SNAP
+        return np.round(canonical / (self.scale * grid)) * grid
 
     def inverse(self, points: NDArray[np.float64]) -> NDArray[np.float64]:
         """Canonical coordinates back to the input's pose."""
         return (np.asarray(points, dtype=np.float64) * self.scale) @ self.rotation.T + self.centre
 
 
-def canonical_pose(vertices: NDArray[np.float64], faces: NDArray[np.int64]) -> Pose:
+def canonical_pose(
+    vertices: NDArray[np.float64], faces: NDArray[np.int64], *, strongest: bool = False
+) -> Pose:
     """The pose of a triangle mesh's surface (see the module notes).
 
     Parameters
     ----------
     vertices : (n, 3) float64 ndarray
     faces : (m, 3) int64 ndarray
+    strongest : bool, optional
+        Orient the two axes with the largest third moments (in magnitude) by their signs and
+        the third by right-handedness, instead of the first two axes.  A shape that a mirror
+        or a half turn maps onto itself has no third moment along the axes it reverses, whose
+        signs rounding would otherwise pick: then the frames a pose can get are the shape's
+        own symmetries (:func:`canonical_mesh`).
 
     Returns
     -------
@@ -122,9 +148,108 @@ def canonical_pose(vertices: NDArray[np.float64], faces: NDArray[np.int64]) -> P
     # area-weighted, suffice to orient them), the third by right-handedness.
     mid = (sums / 3.0) @ axes
     third = np.sum(weight[:, None] * (mid * mid * mid), axis=0)  # not ``**3``: libm's pow
-    for k in range(2):
+    oriented = np.argsort(-np.abs(third), kind="stable")[:2] if strongest else np.arange(2)
+    for k in oriented:
         if third[k] < 0:
             axes[:, k] = -axes[:, k]
     if np.linalg.det(axes) < 0:
-        axes[:, 2] = -axes[:, 2]
+        last = int(np.setdiff1d(np.arange(3), oriented)[0])
+        axes[:, last] = -axes[:, last]
     return Pose(centre, axes, scale)
+
+
+class CanonicalMesh(NamedTuple):
+    """A mesh in its canonical pose, numbered by its own coordinates (:func:`canonical_mesh`).
+
+    Attributes
+    ----------
+    pose : Pose
+    vertices : (n, 3) float64 ndarray
+        Canonical coordinates, snapped, in lexicographic order.
+    faces : (m, 3) int64 ndarray
+        The faces over them (winding kept), each from its smallest vertex, in lexicographic
+        order.
+    order : (n,) int64 ndarray
+        The input vertex of each canonical vertex.
+    fine : (n, 3) float64 ndarray
+        The same vertices snapped to :data:`SNAP` only: where the remesh takes its samples
+        (``vertices`` within half a grid step of them).
+    """
+
+    pose: Pose
+    vertices: NDArray[np.float64]
+    faces: NDArray[np.int64]
+    order: NDArray[np.int64]
+    fine: NDArray[np.float64]
+
+
+def canonical_mesh(
+    vertices: NDArray[np.float64],
+    faces: NDArray[np.int64],
+    *,
+    grid: float = REMESH_SNAP,
+    pose: Pose | None = None,
+) -> CanonicalMesh:
+    """A mesh in its canonical pose, snapped to ``grid`` and numbered by its coordinates.
+
+    The arrays depend on the shape alone, not on its pose, scale or element order (but where a
+    coordinate lies within a pose's rounding of a grid line; see the module notes).  Where the
+    snap would make two vertices coincide or a face lose its area, the coordinates are snapped
+    to :data:`SNAP` instead (a mesh with detail below ``grid``).
+
+    Parameters
+    ----------
+    vertices : (n, 3) float64 ndarray
+    faces : (m, 3) int64 ndarray
+        A cleaned mesh (distinct vertices, faces of nonzero area).
+    grid : float, optional
+        The snap, in units of the RMS radius.
+    pose : Pose, optional
+        The pose to use (default ``canonical_pose(vertices, faces, strongest=True)``).
+
+    Returns
+    -------
+    CanonicalMesh
+
+    Examples
+    --------
+    >>> v = np.array([[0.0, 0, 0], [4, 0, 0], [0, 1, 0], [0, 0, 0.5]])
+    >>> f = np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]])
+    >>> a = canonical_mesh(v, f)
+    >>> b = canonical_mesh(v[::-1] * 3 + 7, (3 - f)[::-1])
+    >>> bool(np.array_equal(a.vertices, b.vertices) and np.array_equal(a.faces, b.faces))
+    True
+    """
+    v = np.asarray(vertices, dtype=np.float64)
+    f = np.asarray(faces, dtype=np.int64)
+    pose = canonical_pose(v, f, strongest=True) if pose is None else pose
+    snapped, order = _numbered(pose.snap(v, grid))
+    if grid != SNAP and _collapses(snapped, order, f):
+        snapped, order = _numbered(pose.snap(v, SNAP))
+    label = np.empty_like(order)
+    label[order] = np.arange(len(order))
+    g = label[f]
+    first = np.argmin(g, axis=1)
+    g = np.take_along_axis(g, (first[:, None] + np.arange(3)) % 3, axis=1)
+    g = g[np.lexsort(g.T[::-1])]
+    return CanonicalMesh(pose, snapped[order], g, order, pose.forward(v)[order] + 0.0)
+
+
+def _numbered(
+    snapped: NDArray[np.float64],
+) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+    """The points (``-0.0`` made ``0.0``: a coordinate that rounds to zero from either side is
+    one number) and their lexicographic order."""
+    snapped = snapped + 0.0
+    return snapped, np.lexsort(snapped.T[::-1]).astype(np.int64)
+
+
+def _collapses(
+    points: NDArray[np.float64], order: NDArray[np.int64], faces: NDArray[np.int64]
+) -> bool:
+    """Whether two of ``points`` coincide (neighbours in their lexicographic ``order``) or a
+    face has no area."""
+    ranked = points[order]
+    if np.any(np.all(ranked[1:] == ranked[:-1], axis=1)):
+        return True
+    return bool(np.any(face_area(points, faces) == 0))
