@@ -13,6 +13,7 @@ from meshwm.errors import CapacityError, GridError, MeshError
 from meshwm.gim.recover import recover_grid
 from meshwm.gim.remesh import GeometryImage, mesh_to_geometry_image
 from meshwm.gim.to_mesh import geometry_image_to_mesh
+from meshwm.mesh.edges import distinct_rows
 from meshwm.message.payload import encode_id
 from meshwm.message.scramble import arnold_scramble
 from meshwm.metrics import bounding_box_diagonal, surface_distance
@@ -261,8 +262,10 @@ def _embed_grid(
         **marked.report,
     }
     # STL stores float32 and re-welds by position: distinct vertices must stay distinct.
-    as32 = out_v[:n_grid_v].astype(np.float32)
-    report["float32_distinct"] = bool(len(np.unique(as32, axis=0)) == n_grid_v)
+    # (Grouped by a hash of each row, exact in float64, not ``np.unique(axis=0)``'s sort of
+    # the rows: 1.1 s at N = 1024.)
+    as32 = out_v[:n_grid_v].astype(np.float32).astype(np.float64) + 0.0
+    report["float32_distinct"] = bool(len(distinct_rows(as32)[0]) == n_grid_v)
     if distances:
         diag = bounding_box_diagonal(unmarked_v)
         d_mark = surface_distance(unmarked_v, grid_f, out_v[:n_grid_v], grid_f)
