@@ -33,7 +33,7 @@ from meshwm._validate import DEFAULT_MAX_FACES, check_mesh
 from meshwm.errors import MeshError
 from meshwm.gim.holes import boundary_loops, fill_holes
 from meshwm.gim.sampling import bilinear_matrix, sampling_matrix
-from meshwm.gim.stable import cut_start, nudge_start
+from meshwm.gim.stable import cut_start, nudge_start, smoothed_near
 from meshwm.gim.tutte import StableMap, restart_map, stable_parameterize
 from meshwm.mesh.clean import clean_mesh
 from meshwm.mesh.edges import distinct_rows
@@ -264,7 +264,9 @@ def keep_start(
 
     The check is made on ``surface.positions + (displacement + bump)``, the very bits the
     marked mesh will have, so a reader's start of that mesh is the one found here (and
-    :func:`meshwm.gim.stable.cut_start` has it memoised).
+    :func:`meshwm.gim.stable.cut_start` has it memoised).  After a bump, the smoothed copy of
+    the rows it reaches is computed from the last round's (:func:`meshwm.gim.stable.smoothed_near`,
+    bit for bit the whole smoothing).
 
     Returns
     -------
@@ -279,11 +281,15 @@ def keep_start(
     d = np.asarray(displacement, dtype=np.float64)
     bump = np.zeros_like(d)
     total = d
+    previous = None
     for round_ in range(rounds + 1):
         moved = (surface.positions + total)[surface.clean_to_position]
         points, faces = _filled(moved, clean_faces)
         if not np.array_equal(faces, filled_faces):
             return None
+        if previous is not None:  # the bump moved a few rows: their smoothing alone, exact
+            smoothed_near(previous, points, faces)
+        previous = points
         if cut_start(points, faces)[0] == want:
             return bump
         push = None if round_ == rounds else nudge_start(points, faces, want[0], margin=margin)

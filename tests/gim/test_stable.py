@@ -309,3 +309,79 @@ def test_the_transposed_steps_from_a_few_vertices_give_the_whole_products_bits(r
     np.testing.assert_array_equal(near.view(np.uint64), whole.view(np.uint64))
     reached = np.count_nonzero(np.any(near != 0, axis=1))
     assert 0 < reached < n * n if n * n > stable._LOCAL_ROWS else reached == n * n
+
+
+def _bumpy_sphere() -> tuple[np.ndarray, np.ndarray]:
+    """A 163,842-vertex closed surface: over the 50,000 rows above which the smoothing is
+    renumbered for locality."""
+    import trimesh
+
+    ico = trimesh.creation.icosphere(subdivisions=7)
+    v = np.asarray(ico.vertices, dtype=np.float64)
+    x, y, z = v.T
+    return v * (1 + 0.2 * x * y + 0.1 * np.sin(5 * z))[:, None], np.asarray(ico.faces)
+
+
+def _strip() -> tuple[np.ndarray, np.ndarray]:
+    """An open, wavy 30 × 1200 grid of 36,000 vertices: under those 50,000 rows, and long
+    enough that two steps' worth of rings around one end is a small part of it."""
+    i, j = np.meshgrid(np.arange(30.0), np.arange(1200.0), indexing="ij")
+    v = np.stack([i, j, 0.3 * np.sin(0.7 * i) * np.cos(0.05 * j)], axis=-1).reshape(-1, 3)
+    k = (np.arange(29)[:, None] * 1200 + np.arange(1199)[None, :]).ravel()
+    f = np.concatenate(
+        [np.stack([k, k + 1200, k + 1], 1), np.stack([k + 1, k + 1200, k + 1201], 1)]
+    )
+    return v, f.astype(np.int64)
+
+
+def _memoised(vertices, faces):
+    from meshwm.gim import stable
+
+    return stable._MEMO[(*stable.arrays_key(vertices, faces), 50, 0.5)]
+
+
+def test_smoothing_the_rows_a_change_reaches_is_the_whole_smoothing():
+    # The embedder's check after a bump (keep_start) smooths only the rows the bump reaches:
+    # bit for bit the smoothed copy, sources and near-ties of the whole mesh, on a mesh whose
+    # smoothing is renumbered for locality (a bump from nudge_start, a few moved vertices) and
+    # on an open one, whose boundary rows read their boundary neighbours only.
+    from meshwm.gim import stable
+
+    rng = np.random.default_rng(3)
+    sphere = _bumpy_sphere()
+    cases = []
+    v, f = sphere
+    far = int(np.argmax(np.linalg.norm(v - v.mean(axis=0), axis=1)))
+    cases.append((v, f, v + stable.nudge_start(v, f, far, margin=2e-3)))
+    cases.append((v, f, v + np.where(np.arange(len(v))[:, None] % 100_000 == 7, 1e-4, 0.0)))
+    v, f = _strip()
+    moved = v.copy()
+    moved[[0, 31, 65]] += rng.normal(size=(3, 3)) * 1e-3  # on and near the border
+    cases.append((v, f, moved))
+    for base, faces, new in cases:
+        assert 0 < np.any(new != base, axis=1).sum() < len(base) // 8
+        stable._MEMO.clear()
+        cut_start(base, faces)
+        assert stable.smoothed_near(base, new, faces)
+        got = _memoised(new, faces)
+        stable._MEMO.clear()
+        want = stable._smoothed_sources(new, faces, steps=50, lam=0.5)
+        np.testing.assert_array_equal(got[0], want[0])
+        np.testing.assert_array_equal(got[0], smoothed_copy(new, faces))
+        for a, b in zip(got[1], want[1], strict=True):
+            np.testing.assert_array_equal(a, b)
+        assert got[2] == want[2]
+
+
+def test_smoothing_near_a_change_declines_without_its_base_or_for_a_wide_change(spot_mesh):
+    from meshwm.gim import stable
+
+    v, f = spot_mesh
+    moved = v.copy()
+    moved[0] += 1e-3
+    stable._MEMO.clear()
+    assert not stable.smoothed_near(v, moved, f)  # the base's copy is not memoised
+    cut_start(v, f)
+    assert not stable.smoothed_near(v, v + 1e-3, f)  # every row moved: the cone is the mesh
+    assert not stable.smoothed_near(v, v.copy(), f)  # nothing moved
+    assert (*stable.arrays_key(v + 1e-3, f), 50, 0.5) not in stable._MEMO
