@@ -10,16 +10,16 @@ coordinates are snapped to a grid.  Two copies of one mesh in different poses th
 canonical coordinates that are bit-identical or one grid step apart (a pose far from the origin
 costs digits: translation ±100 at scale 0.01 leaves ~1e-12 of the radius).
 
-:func:`canonical_mesh` is what the remesh runs on: the coordinates snapped to
-:data:`REMESH_SNAP` (2⁻²⁴ of the RMS radius, far above those digits, so that two poses give
-the same numbers but where a coordinate lies within ~1e-12 of a grid line), the vertices
-numbered by their snapped coordinates and the faces in an order of their own.  Two poses then
-hand the remesh the same arrays, and every choice it makes (a cut path, a corner, a stretch
-maximum) is the same choice, exact ties included: a mesh built on a regular grid (the genus-8
-plate, with every edge of one length) has ties that rounding alone decided before, and a shape
-that a rotation maps onto itself gets the same arrays in both of the poses it is given.  The
-remesh's samples are taken back to the input's pose.  :data:`SNAP` (2⁻⁴⁰) is the spherical
-image's grid (:mod:`meshwm.gim.sphere`).
+The remesh runs on those coordinates.  A shape whose distances to its centre tie in pairs (a
+rotation or a mirror maps it onto itself: the genus-8 plate) has choices that are exact ties,
+which those last digits would decide; it is remeshed as its :func:`canonical_mesh` instead: the
+coordinates snapped to :data:`REMESH_SNAP` (2⁻²⁴ of the RMS radius, far above those digits, so
+that two poses give the same numbers but where a coordinate lies within ~1e-12 of a grid
+line), the vertices numbered by their snapped coordinates, the faces in an order of their own,
+the frame's signs from its two strongest third moments.  Two poses then hand the remesh the
+same arrays, and every choice it makes (a cut path, a corner, a chain's grid steps) is the same
+choice, exact ties included; a shape that a rotation maps onto itself gets the same arrays in
+both of the frames it can be given.  The remesh's samples are taken back to the input's pose.
 
 A shape whose principal moments (nearly) coincide, or whose third moment along an axis is
 (nearly) zero, has no well-defined frame; there the pose is still a similarity, and the remesh is
