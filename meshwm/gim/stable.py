@@ -570,7 +570,14 @@ def _smoothed_sources(
         if key in _MEMO:
             _MEMO.move_to_end(key)
             return _MEMO[key]
-    smooth = smoothed_copy(vertices, faces, steps=steps, lam=lam)
+    return _remember(key, smoothed_copy(vertices, faces, steps=steps, lam=lam), faces)
+
+
+def _remember(
+    key: tuple, smooth: NDArray[np.float64], faces: NDArray[np.int64]
+) -> tuple[NDArray[np.float64], _Sources, tuple[int, ...]]:
+    """A mesh's smoothed copy (made read-only) with its sources and near-ties, memoised
+    under ``key`` (:func:`_smoothed_sources`, :func:`smoothed_near`)."""
     smooth.flags.writeable = False
     sources = _sources(smooth, faces)
     found = (smooth, sources, _near_ties(smooth, faces, sources))
@@ -660,13 +667,7 @@ def smoothed_near(
     reached = cone[: int(np.searchsorted(depth, reach - int(steps), side="right"))]
     smooth = np.array(found[0])
     smooth[reached if order is None else order[reached]] = current[reached]
-    smooth.flags.writeable = False
-    sources = _sources(smooth, faces)
-    result = (smooth, sources, _near_ties(smooth, faces, sources))
-    with _MEMO_LOCK:
-        _MEMO[(*arrays_key(vertices, faces), int(steps), float(lam))] = result
-        while len(_MEMO) > _MEMO_SIZE:
-            _MEMO.popitem(last=False)
+    _remember((*arrays_key(vertices, faces), int(steps), float(lam)), smooth, faces)
     return True
 
 
