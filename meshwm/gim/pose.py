@@ -34,6 +34,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from meshwm._vector import _columns, face_area
+from meshwm.mesh.edges import canonical_faces
 
 __all__ = ["REMESH_SNAP", "SNAP", "CanonicalMesh", "Pose", "canonical_mesh", "canonical_pose"]
 
@@ -228,11 +229,9 @@ def canonical_mesh(
         snapped, order = _numbered(pose.snap(v, SNAP))
     label = np.empty_like(order)
     label[order] = np.arange(len(order))
-    g = label[f]
-    first = np.argmin(g, axis=1)
-    g = np.take_along_axis(g, (first[:, None] + np.arange(3)) % 3, axis=1)
-    g = g[np.lexsort(g.T[::-1])]
-    return CanonicalMesh(pose, snapped[order], g, order, pose.forward(v)[order] + 0.0)
+    return CanonicalMesh(
+        pose, snapped[order], canonical_faces(f, label), order, pose.forward(v)[order] + 0.0
+    )
 
 
 def _numbered(

@@ -60,6 +60,7 @@ from meshwm._digest import LastResult, arrays_key
 from meshwm.errors import MeshError
 from meshwm.gim.cut import CutMesh, area_centroid, cut_open, path_edges
 from meshwm.mesh.clean import euler_characteristic, uniform_smoothing_operator, unique_edges
+from meshwm.mesh.edges import canonical_faces
 
 __all__ = [
     "EDGE_MARGIN",
@@ -671,14 +672,6 @@ def smoothed_near(
     return True
 
 
-def _canonical_faces(faces: NDArray[np.int64], rank: NDArray[np.int64]) -> NDArray[np.int64]:
-    """Faces in labels, each rotated to start at its smallest label, rows sorted."""
-    f = rank[faces]
-    shift = np.argmin(f, axis=1)
-    f = np.take_along_axis(f, (shift[:, None] + np.arange(3)[None, :]) % 3, axis=1)
-    return f[np.lexsort(f.T[::-1])]
-
-
 def _tree_path(parent: NDArray[np.int64], tip: int) -> NDArray[np.int64]:
     path = [tip]
     while parent[path[-1]] >= 0:
@@ -730,7 +723,7 @@ def stable_cut(
     label = np.empty_like(order)
     label[order] = np.arange(len(order))
     if euler_characteristic(len(vertices), faces) != 2:
-        canonical = igl.cut_to_disk(_canonical_faces(faces, label))
+        canonical = igl.cut_to_disk(canonical_faces(faces, label))
         paths = [order[np.asarray(c, dtype=np.int64)] for c in canonical]
     else:  # connected and closed genus 0: igl.cut_to_disk leaves it uncut (igea: after 1.4 s)
         paths = [_tree_path(parent, int(order[-1]))]

@@ -18,6 +18,7 @@ from meshwm._vector import _columns
 __all__ = [
     "border_half_edges",
     "border_loop",
+    "canonical_faces",
     "corner_edges_by_edge",
     "distinct_rows",
     "edge_topology_counts",
@@ -26,6 +27,22 @@ __all__ = [
     "unique_edges",
     "unique_rows",
 ]
+
+
+def canonical_faces(faces: NDArray[np.int64], rank: NDArray[np.int64]) -> NDArray[np.int64]:
+    """Faces in the labels ``rank`` gives their vertices, each rotated to start at its smallest
+    label (the winding kept), rows sorted: the same array for the same labelled faces in any
+    order.
+
+    Examples
+    --------
+    >>> canonical_faces(np.array([[2, 0, 1], [1, 3, 2]]), np.array([3, 2, 1, 0])).tolist()
+    [[0, 1, 2], [1, 3, 2]]
+    """
+    f = rank[faces]
+    shift = np.argmin(f, axis=1)
+    f = np.take_along_axis(f, (shift[:, None] + np.arange(3)[None, :]) % 3, axis=1)
+    return f[np.lexsort(f.T[::-1])]
 
 
 def _group(key: NDArray) -> tuple[NDArray[np.int64], NDArray[np.int64]]:

@@ -24,7 +24,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial import cKDTree
 
-from meshwm.gim.stable import _canonical_faces
+from meshwm.mesh.edges import canonical_faces
 from meshwm.metrics import bounding_box_diagonal
 
 __all__ = ["proper_symmetries", "random_similarity", "up_to_symmetry"]
@@ -89,7 +89,7 @@ def proper_symmetries(
             ]
     tree = cKDTree(rel)
     labels = np.arange(len(v))
-    own = _canonical_faces(f, labels)
+    own = canonical_faces(f, labels)
     found = [np.eye(3)]
     for r in candidates:
         if any(np.allclose(r, g, atol=1e-9) for g in found):
@@ -98,7 +98,7 @@ def proper_symmetries(
         dist, lands = tree.query(rel @ r.T, distance_upper_bound=tol * diag)
         if not np.isfinite(dist).all() or len(np.unique(lands)) != len(v):
             continue
-        if np.array_equal(_canonical_faces(lands[f], labels), own):
+        if np.array_equal(canonical_faces(lands[f], labels), own):
             found.append(r)
     return found
 
