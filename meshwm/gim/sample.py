@@ -1,10 +1,11 @@
 """Sampling the map onto the N×N grid: the geometry image and the weld map of its seams.
 
-Each grid point is located in the mesh's own UV triangles (``igl.AABB`` over UVs padded with a
-zero z) and interpolated barycentrically; a point the UV domain misses by rounding takes the
-closest point of the domain, so the image has no holes and no NaN.  Boundary samples are
-evaluated on the 3-D boundary chains directly (:mod:`meshwm.gim.boundary`), so both sides of a
-cut get the same point; the weld map records which samples are one.
+Each grid point is located in the mesh's own UV triangles (a scan of each triangle's box) and
+interpolated barycentrically; a point the UV domain misses takes the closest point of the
+domain (``igl.AABB`` over UVs padded with a zero z), so the image has no holes and no NaN.
+Boundary samples are evaluated on the 3-D boundary chains directly
+(:mod:`meshwm.gim.boundary`), so both sides of a cut get the same point; the weld map records
+which samples are one.
 """
 
 from __future__ import annotations
@@ -14,7 +15,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from meshwm.gim.boundary import Chains, unit_to_uv
-from meshwm.gim.sampling import near_grid_faces
+from meshwm.gim.sampling import locate_grid_points, near_grid_faces
 
 __all__ = ["sample_geometry_image"]
 
@@ -37,23 +38,29 @@ _NEAR = 1e-9
 def _closest_faces(
     uv: NDArray[np.float64], faces: NDArray[np.int64], points: NDArray[np.float64], n: int
 ) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
-    """For each (x, y, 0) point the closest UV triangle and the closest point on it.
+    """For each (x, y, 0) grid point the closest UV triangle and the closest point on it.
 
-    The tree holds only the triangles whose box, widened by :data:`_NEAR`, holds a grid point
-    (a fine mesh has far more triangles than the grid has points): one left out is farther than
-    ``_NEAR`` from every grid point, so a point found within ``_NEAR`` has its closest triangle;
-    a point farther (a map that misses part of the square) asks a tree over them all.
+    A point inside the domain is its own closest point, in the triangle that holds it
+    (:func:`meshwm.gim.sampling.locate_grid_points`, a scan of each triangle's box).  The
+    points no triangle holds (a map that misses part of the square) ask an AABB tree: over the
+    triangles whose box, widened by :data:`_NEAR`, holds a grid point (one left out is farther
+    than ``_NEAR`` from every grid point), and a point farther than that over them all.
     """
+    face_id = locate_grid_points(uv, faces, n)
+    closest = np.array(points, dtype=np.float64)
+    rest = np.flatnonzero(face_id < 0)
+    if len(rest) == 0:
+        return face_id, closest
     uv3 = np.column_stack([uv, np.zeros(len(uv))])
     near = near_grid_faces(uv, faces, n, tolerance=_NEAR)
     if len(near) == 0:  # no triangle near any grid point: every point asks the whole tree
         near = np.arange(len(faces))
     tree = igl.AABB()
     tree.init(uv3, faces[near])
-    sq_dist, face_id, closest = tree.squared_distance(uv3, faces[near], points)
-    face_id = near[np.asarray(face_id, dtype=np.int64)]
-    closest = np.array(closest)
-    far = np.flatnonzero(np.asarray(sq_dist) > _NEAR * _NEAR)
+    sq_dist, near_id, near_closest = tree.squared_distance(uv3, faces[near], points[rest])
+    face_id[rest] = near[np.asarray(near_id, dtype=np.int64)]
+    closest[rest] = near_closest
+    far = rest[np.asarray(sq_dist) > _NEAR * _NEAR]
     if len(far):
         tree = igl.AABB()
         tree.init(uv3, faces)

@@ -20,7 +20,14 @@ from numpy.typing import NDArray
 
 from meshwm._validate import check_integer
 
-__all__ = ["Sampling", "bilinear_matrix", "grid_points", "near_grid_faces", "sampling_matrix"]
+__all__ = [
+    "Sampling",
+    "bilinear_matrix",
+    "grid_points",
+    "locate_grid_points",
+    "near_grid_faces",
+    "sampling_matrix",
+]
 
 
 class Sampling(NamedTuple):
@@ -210,6 +217,102 @@ def near_grid_faces(
         inside = (first <= last) & (last >= 0) & (first <= scale)
         out.append(lo + np.flatnonzero(inside[:, 0] & inside[:, 1]))
     return np.concatenate(out) if out else np.zeros(0, dtype=np.int64)
+
+
+#: Face-and-grid-point pairs tested at once (:func:`locate_grid_points`): about 100 MB.
+_PAIR_CHUNK = 2_000_000
+
+
+def locate_grid_points(
+    u: NDArray[np.float64], f: NDArray[np.int64], size: int, *, slack: float = 1e-14
+) -> NDArray[np.int64]:
+    """The UV triangle that holds each grid point, found by scanning each triangle's box.
+
+    Each triangle is tested against the grid points of its bounding box (a raster scan, linear
+    in the triangles and the points they cover) by the signs of its three edge functions: a
+    point is in a triangle where it lies on the inner side of each edge's line or at most
+    ``slack`` outside it.  A point in several (on a shared edge, or within rounding of one)
+    takes the lowest-numbered triangle that holds it exactly, else the lowest that holds it
+    within ``slack``.  What an AABB tree's closest triangle gives for a point inside the domain,
+    without building the tree, and exact where igl's point-triangle distance is not (on a
+    sliver it put a point that lies on the triangle's edge 3e-7 away).
+
+    Parameters
+    ----------
+    u : (V, 2) float64 ndarray
+        The map of each vertex.
+    f : (F, 3) int64 ndarray
+        Triangles as indices into ``u``.
+    size : int
+        Grid size N: the points ``(j, i) / (N - 1)``, row ``i * N + j``.
+    slack : float, optional
+        How far (in UV units) outside a triangle a point may lie and still be in it: rounding
+        on an edge.
+
+    Returns
+    -------
+    (N²,) int64 ndarray
+        The triangle's index into ``f`` per grid point, -1 where none holds it (a point off
+        the domain, which a closest-point query must answer).
+
+    Examples
+    --------
+    >>> uv = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [1.0, 1.0]])
+    >>> locate_grid_points(uv, np.array([[0, 1, 3], [0, 3, 2]]), 3).tolist()
+    [0, 0, 0, 1, 0, 0, 1, 1, 0]
+    """
+    scale = size - 1
+    nf = len(f)
+    # Per grid point: the lowest triangle that holds it exactly, else nf + the lowest that
+    # holds it within the slack, else 2 nf.
+    best = np.full(size * size, 2 * nf, dtype=np.int64)
+    corner = [u[f[:, k]] for k in range(3)]
+    lo = np.ceil(np.minimum(np.minimum(corner[0], corner[1]), corner[2]) * scale - 1e-9)
+    hi = np.floor(np.maximum(np.maximum(corner[0], corner[1]), corner[2]) * scale + 1e-9)
+    lo = np.maximum(lo, 0).astype(np.int64)
+    width = np.maximum(np.minimum(hi, scale).astype(np.int64) - lo + 1, 0)  # (F, 2): j, i
+    count = width[:, 0] * width[:, 1]
+    # Edge k runs from corner k to corner k + 1; its function's sign on the triangle's side
+    # (orientation) and its length, per triangle.
+    edge = [corner[(k + 1) % 3] - corner[k] for k in range(3)]
+    det = edge[0][:, 0] * edge[2][:, 1] - edge[0][:, 1] * edge[2][:, 0]
+    sign = -np.sign(det)  # edge 0 × (-edge 2): twice the signed area
+    reach = [slack * np.hypot(e[:, 0], e[:, 1]) for e in edge]
+    ends = np.cumsum(count)
+    start = 0
+    while start < nf:
+        base = int(ends[start - 1]) if start else 0
+        stop = max(int(np.searchsorted(ends, base + _PAIR_CHUNK, side="right")), start + 1)
+        faces = np.arange(start, stop)
+        faces = faces[(count[faces] > 0) & (sign[faces] != 0)]
+        start = stop
+        if len(faces) == 0:
+            continue
+        k = count[faces]
+        face = np.repeat(faces, k)
+        offset = np.arange(int(k.sum())) - np.repeat(np.cumsum(k) - k, k)
+        nj = width[face, 0]
+        j = lo[face, 0] + offset % nj
+        i = lo[face, 1] + offset // nj
+        del offset, nj
+        px, py = j / scale, i / scale  # the grid points' own numbers (grid_points)
+        s = sign[face]
+        exact = np.ones(len(face), dtype=bool)
+        near = np.ones(len(face), dtype=bool)
+        for e in range(3):
+            # The edge function times the orientation: >= 0 on the triangle's side.
+            inner = s * (
+                edge[e][face, 0] * (py - corner[e][face, 1])
+                - edge[e][face, 1] * (px - corner[e][face, 0])
+            )
+            exact &= inner >= 0
+            near &= inner >= -reach[e][face]
+        point = i * size + j
+        np.minimum.at(best, point[exact], face[exact])
+        np.minimum.at(best, point[near & ~exact], face[near & ~exact] + nf)
+    found = np.where(best < nf, best, best - nf)
+    found[best >= 2 * nf] = -1
+    return found
 
 
 def sampling_matrix(

@@ -31,9 +31,9 @@ def test_a_flat_square_samples_the_grid_points_and_welds_nothing(flat_square):
 
 
 @pytest.mark.parametrize("seed", range(6))
-def test_closest_faces_among_near_triangles_are_the_whole_trees(seed):
+def test_closest_faces_are_the_whole_trees_or_closer(seed):
     # Many small triangles, most far from every grid point; part of the square uncovered
-    # (its points ask the whole tree); the same closest points as a tree over all faces.
+    # (its points ask the whole tree); the closest points of a tree over all faces, or closer.
     import igl
     from scipy.spatial import Delaunay
 
@@ -53,16 +53,20 @@ def test_closest_faces_among_near_triangles_are_the_whole_trees(seed):
     tree = igl.AABB()
     tree.init(uv3, faces)
     sq_all, id_all, closest_all = tree.squared_distance(uv3, faces, points)
-    assert_allclose(closest, closest_all, rtol=0, atol=1e-15)
-    # The face found holds the closest point (ties between neighbours may pick either).
+    # Never farther than the whole tree's closest point (which on the hull's slivers is off
+    # by up to 3e-7: igl's point-triangle distance; a point the scan finds in its triangle
+    # is its own closest point, in exact arithmetic too: test_sampling.py).
     d = np.linalg.norm(closest[:, :2] - points[:, :2], axis=1)
-    assert_allclose(d**2, sq_all, rtol=1e-12, atol=1e-24)
+    assert np.all(d**2 <= np.asarray(sq_all) * (1 + 1e-12) + 1e-24)
+    off = np.asarray(sq_all) > 1e-12  # off the domain: the tree's own answer
+    assert_allclose(closest[off], closest_all[off], rtol=0, atol=1e-15)
+    assert off.any() == bool(seed % 2)
+    # The face found holds the closest point.
     uvt = uv[faces[face_id]]
     bary = np.linalg.solve(
         np.stack([uvt[:, 1] - uvt[:, 0], uvt[:, 2] - uvt[:, 0]], axis=2),
         (closest[:, :2] - uvt[:, 0])[:, :, None],
     )[:, :, 0]
     assert np.all(bary >= -1e-9) and np.all(bary.sum(axis=1) <= 1 + 1e-9)
-    assert (d > 1e-3).any() == bool(seed % 2)
     same = np.asarray(id_all) == face_id
     assert same.mean() > 0.9

@@ -7,8 +7,15 @@ import pytest
 import scipy.sparse as sp
 from numpy.testing import assert_allclose, assert_array_equal
 
+from meshwm.gim import sampling as sampling_module
 from meshwm.gim.code import grid_faces
-from meshwm.gim.sampling import Sampling, bilinear_matrix, grid_points, sampling_matrix
+from meshwm.gim.sampling import (
+    Sampling,
+    bilinear_matrix,
+    grid_points,
+    locate_grid_points,
+    sampling_matrix,
+)
 
 N = 33
 
@@ -149,3 +156,64 @@ def test_bilinear_weights_reproduce_bilinear_fields_and_pick_grid_points():
 def test_bilinear_bad_input_raises(uv, n, match):
     with pytest.raises(ValueError, match=match):
         bilinear_matrix(uv, n)
+
+
+def _holds_exactly(tri: np.ndarray, point: np.ndarray) -> bool:
+    """Whether a UV triangle holds a point, in rational arithmetic."""
+    from fractions import Fraction
+
+    a, b, c = ([Fraction(float(x)) for x in corner] for corner in tri)
+    p = [Fraction(float(x)) for x in point]
+
+    def side(o: list, q: list) -> Fraction:
+        return (q[0] - o[0]) * (p[1] - o[1]) - (q[1] - o[1]) * (p[0] - o[0])
+
+    s = [side(a, b), side(b, c), side(c, a)]
+    return all(x >= 0 for x in s) or all(x <= 0 for x in s)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_located_grid_points_lie_in_their_lowest_triangle_in_exact_arithmetic(seed):
+    # A random triangulation of the square (hull slivers included) and a structured one
+    # whose edges run through grid points: every grid point is found, in a triangle that
+    # holds it exactly, and the lowest-numbered such triangle.
+    from scipy.spatial import Delaunay
+
+    rng = np.random.default_rng(seed)
+    if seed % 2:
+        uv = rng.uniform(0.0, 1.0, size=(600, 2))
+        uv[:4] = [[0, 0], [1, 0], [0, 1], [1, 1]]
+        faces = Delaunay(uv).simplices.astype(np.int64)
+    else:
+        k = 9  # vertices at grid points of N = 33: many points on shared edges and corners
+        i, j = np.meshgrid(np.arange(k), np.arange(k), indexing="ij")
+        uv = np.stack([j.ravel(), i.ravel()], axis=1) / (k - 1)
+        faces = grid_faces(k).astype(np.int64)
+    faces = faces[rng.permutation(len(faces))]
+    found = locate_grid_points(uv, faces, N)
+    points = grid_points(N)
+    assert (found >= 0).all()
+    tri = uv[faces]
+    lo, hi = tri.min(axis=1), tri.max(axis=1)
+    for p in rng.choice(N * N, 150, replace=False):
+        boxed = np.flatnonzero(((lo <= points[p]) & (points[p] <= hi)).all(axis=1))
+        holding = [t for t in boxed if _holds_exactly(tri[t], points[p])]
+        assert found[p] == min(holding)
+
+
+def test_points_off_the_domain_are_not_located_and_chunks_change_nothing(monkeypatch):
+    from scipy.spatial import Delaunay
+
+    rng = np.random.default_rng(5)
+    uv = rng.uniform(0.2, 0.9, size=(300, 2))
+    faces = Delaunay(uv).simplices.astype(np.int64)
+    found = locate_grid_points(uv, faces, N)
+    points = grid_points(N)
+    off = (points < 0.2).any(axis=1) | (points > 0.9).any(axis=1)
+    assert (found[off] == -1).all() and (found[~off] >= -1).all()
+    inside = found >= 0
+    assert inside.sum() > 0.3 * N * N
+    for p in np.flatnonzero(inside)[::7]:
+        assert _holds_exactly(uv[faces[found[p]]], points[p])
+    monkeypatch.setattr(sampling_module, "_PAIR_CHUNK", 50)  # a few faces per chunk
+    assert_array_equal(locate_grid_points(uv, faces, N), found)
