@@ -153,12 +153,27 @@ def _make_layout(n: int, key: str | bytes, n_bits: int) -> _Layout:
     return _Layout(b, c, r, q, bit, dither, by_bit, starts)
 
 
-def _steps(approx: NDArray, layout: _Slots | _Layout, step: float) -> NDArray[np.float64]:
-    """Per-slot step over the local scale: tangential ``step``, normal a quarter; guarded."""
+def _guard(approx: NDArray, layout: _Slots | _Layout) -> NDArray[np.float64]:
+    """Per-slot step multiplier of the fuzzy guard: :data:`GUARD_RATIO` where it finds the
+    surface smooth, else 1 (it depends on the approximation only, not on the step)."""
     weight = perceptual_weight(approx, block=1)
     guard = np.where(np.isin(strength_class(weight), GUARD_CLASSES), GUARD_RATIO, 1.0)
+    return guard[layout.row, layout.col]
+
+
+def _steps(
+    approx: NDArray,
+    layout: _Slots | _Layout,
+    step: float,
+    *,
+    guard: NDArray[np.float64] | None = None,
+) -> NDArray[np.float64]:
+    """Per-slot step over the local scale: tangential ``step``, normal a quarter; guarded
+    (``guard``: :func:`_guard` of ``approx``, if found already)."""
+    if guard is None:
+        guard = _guard(approx, layout)
     per = np.where(layout.comp == 2, NORMAL_RATIO, 1.0) * step
-    return per * guard[layout.row, layout.col]
+    return per * guard
 
 
 def _unit(scale: NDArray[np.float64], layout: _Slots | _Layout) -> NDArray[np.float64]:
