@@ -16,7 +16,7 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from meshwm._digest import LastResult, arrays_key
+from meshwm._digest import LastResult, arrays_key, freeze
 from meshwm._vector import face_cross, row_norm
 from meshwm.errors import MeshError
 
@@ -175,4 +175,6 @@ def fill_holes(
     centres = np.array([points[loop].mean(axis=0) for loop in inner]).reshape(-1, 3)
     all_faces = np.concatenate([faces, *fans]) if fans else faces
     outer = loops[keep] if keep >= 0 else np.zeros(0, dtype=np.int64)
-    return Filled(all_faces.astype(np.int64), centres, outer, inner)
+    out = Filled(all_faces.astype(np.int64), centres, outer, inner)
+    freeze(out.faces, out.centres)
+    return out

@@ -28,7 +28,7 @@ import scipy.sparse as sp
 from numpy.typing import NDArray
 from scipy.sparse.csgraph import connected_components
 
-from meshwm._digest import LastResult, arrays_key
+from meshwm._digest import LastResult, arrays_key, freeze
 from meshwm._validate import DEFAULT_MAX_FACES, check_mesh
 from meshwm.errors import MeshError
 from meshwm.gim.holes import boundary_loops, fill_holes
@@ -164,6 +164,7 @@ def surface_of(
         return _as_given(v, f, rank=rank, min_used=min_used)
     positions, inverse = _distinct(v)
     clean = clean_mesh(v, f, max_faces=max_faces)
+    freeze(clean.vertices, clean.faces)  # ours alone (or shared, read-only already)
     # Each cleaned vertex is a copy of an input vertex (``clean.source``), so it is at that
     # vertex's distinct position (found before by grouping both sets of rows again: 5M
     # vertices, 2.9 s).
@@ -173,9 +174,11 @@ def surface_of(
     smap = _map_filled(clean.vertices, clean.faces, rank=rank, like=reuse)
     used = np.zeros(len(positions), dtype=bool)
     used[to_position] = True
-    return Surface(
+    out = Surface(
         positions, inverse, to_position[clean.faces], used, smap, to_position, clean.report
     )
+    freeze(out.positions, out.inverse, out.faces, out.used, out.clean_to_position)
+    return out
 
 
 def same_cleaning(
@@ -304,7 +307,9 @@ def _map_faces(surface: Surface) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
     """The faces the map was made of (holes filled, over the cleaned vertices and the fans'
     centres) and, of those, the cleaned component's own (no centre)."""
     filled = surface.map.cut.mesh.origin[surface.map.cut.mesh.faces]
-    return filled, filled[np.all(filled < len(surface.clean_to_position), axis=1)]
+    own = filled[np.all(filled < len(surface.clean_to_position), axis=1)]
+    freeze(filled, own)
+    return filled, own
 
 
 def _filled(
