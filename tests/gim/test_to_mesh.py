@@ -79,3 +79,21 @@ def test_tetrahedron_is_the_smallest_mesh():
 def test_gim_shape_is_checked():
     with pytest.raises(ValueError, match="gim must have shape"):
         geometry_image_to_mesh(np.zeros((4, 5, 3)))
+
+
+@pytest.mark.parametrize("fixture", ["spot_mesh", "kitten_mesh", "plane_mesh"])
+def test_fins_found_among_the_seams_triangles_are_all_of_them(fixture, request):
+    # The welded grid's repeated triangles are looked for only among the triangles at a
+    # welded sample's root: the same triangles dropped as a search over all of them.
+    from meshwm.gim.code import grid_faces
+    from meshwm.gim.to_mesh import _weld_faces
+
+    v, f = request.getfixturevalue(fixture)
+    g = mesh_to_geometry_image(v, f, size=64)
+    faces = g.weld.reshape(-1)[grid_faces(64)]
+    faces = faces[(faces[:, 0] != faces[:, 1]) & (faces[:, 1] != faces[:, 2])]
+    faces = faces[faces[:, 0] != faces[:, 2]]
+    key = np.sort(faces, axis=1)
+    _, inverse, counts = np.unique(key, axis=0, return_inverse=True, return_counts=True)
+    expected = faces[counts[inverse] == 1]
+    np.testing.assert_array_equal(_weld_faces(grid_faces(64), g.weld), expected)
