@@ -162,13 +162,27 @@ def _hashed_groups(v: NDArray) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
         for k in range(bits.shape[1]):
             h = (h ^ bits[:, k]) * mix
             h ^= h >> np.uint64(29)
-    first, inverse = _group(h.view(np.int64))
+    key = h.view(np.int64)
+    if _all_distinct(key):
+        # What _group gives where no two keys tie (its stable order is then the only one),
+        # without its stable sort of random keys (1M rows: 0.1 s against 0.03 s).
+        order = np.argsort(key).astype(np.int64)
+        inverse = np.empty(len(v), dtype=np.int64)
+        inverse[order] = np.arange(len(v))
+        return order, inverse
+    first, inverse = _group(key)
     # Only rows grouped with an earlier one need checking (a collision: exact but slower).
     rep = first[inverse]
     later = np.flatnonzero(rep != np.arange(len(v)))
     if not np.array_equal(bits[rep[later]], bits[later]):
         return unique_rows(v)
     return first, inverse
+
+
+def _all_distinct(key: NDArray[np.int64]) -> bool:
+    """Whether no two keys are equal (a plain sort: 1M keys, 8 ms)."""
+    s = np.sort(key)
+    return bool(np.all(s[1:] != s[:-1]))
 
 
 def distinct_rows(rows: NDArray) -> tuple[NDArray[np.int64], NDArray[np.int64]]:

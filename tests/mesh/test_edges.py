@@ -192,3 +192,22 @@ def test_odd_vertices_are_those_whose_outgoing_and_incoming_neighbours_differ(se
     got = _odd_vertices(np.asarray(f, dtype=np.int64), n)
     assert got.tolist() == want
     assert sum(want) > 0 and (seed % 2 or sum(want) < n)  # the plane's inside is not odd
+
+
+@pytest.mark.parametrize("dtype", [np.float64, np.int64])
+def test_hashed_groups_of_distinct_rows_skip_the_stable_sort_and_agree_with_it(dtype, monkeypatch):
+    # Rows that are all distinct take a plain sort; the groups, their numbering and each
+    # group's first row are the stable sort's (forced by declaring some key a tie).
+    from meshwm.mesh import edges
+
+    rng = np.random.default_rng(3)
+    distinct = rng.integers(0, 50, size=(5000, 3)).astype(dtype)
+    distinct = distinct[edges.unique_rows(distinct)[0]]
+    repeated = np.concatenate([distinct, distinct[::7]])
+    fast = [edges._hashed_groups(x) for x in (distinct, repeated)]
+    monkeypatch.setattr(edges, "_all_distinct", lambda key: False)
+    slow = [edges._hashed_groups(x) for x in (distinct, repeated)]
+    for a, b in zip(fast, slow, strict=True):
+        np.testing.assert_array_equal(a[0], b[0])
+        np.testing.assert_array_equal(a[1], b[1])
+    assert len(fast[0][0]) == len(distinct) and len(fast[1][0]) == len(distinct)
