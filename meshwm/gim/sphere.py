@@ -335,8 +335,10 @@ def sphere_sampling(
         raise MeshError("every vertex is at the centre: no spherical image")
     rows = np.flatnonzero(live)
     # A sliding-midpoint tree: the same exact neighbours, built in 40 % of the time of a
-    # balanced one (5M directions: 1.7 s against 4.4 s); it serves one query of N² pixels.
-    tree = cKDTree(unit[rows], balanced_tree=False, compact_nodes=False)
+    # balanced one (5M directions: 1.7 s against 4.4 s); it serves one query of N² pixels,
+    # so leaves of 32 points (half the nodes to build; 537k directions: 0.105 → 0.069 s,
+    # the query 0.03 s either way).
+    tree = cKDTree(unit[rows], leafsize=32, balanced_tree=False, compact_nodes=False)
     dist, nearest = tree.query(grid, k=k)
     dist = dist.reshape(len(grid), k)
     nearest = rows[nearest.reshape(len(grid), k)]
