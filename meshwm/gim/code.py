@@ -103,7 +103,9 @@ def flipped_cells(n: int) -> NDArray[np.int64]:
 
 
 def grid_faces(n: int) -> NDArray[np.int64]:
-    """The two triangles of every grid cell, counter-clockwise in (u, v), diagonals alternating.
+    """The two triangles of every grid cell, counter-clockwise in (u, v), diagonals alternating
+    (read-only: one array per size, shared; at N = 1024 two million triangles, 45 ms to build,
+    asked for by the embedding's output and its read-back).
 
     Cell (i, j) has corners ``p00 = i*N + j``, ``p01 = p00 + 1``, ``p10 = p00 + N`` and
     ``p11 = p10 + 1``.  Where i + j is even its diagonal is p00-p11, triangles (p00, p01, p11)
@@ -124,6 +126,11 @@ def grid_faces(n: int) -> NDArray[np.int64]:
     changes, not a single sample, so the surface moves by no more than the non-planarity of a
     grid quad.
     """
+    return _grid_faces(int(n))
+
+
+@functools.lru_cache(maxsize=4)
+def _grid_faces(n: int) -> NDArray[np.int64]:
     i, j = np.meshgrid(np.arange(n - 1), np.arange(n - 1), indexing="ij")
     p00 = (i * n + j).ravel()
     p01, p10, p11 = p00 + 1, p00 + n, p00 + n + 1
@@ -133,4 +140,6 @@ def grid_faces(n: int) -> NDArray[np.int64]:
     even = even.ravel()[:, None]
     t1 = np.where(even, np.stack([p00, p01, p11], axis=1), np.stack([p00, p01, p10], axis=1))
     t2 = np.where(even, np.stack([p00, p11, p10], axis=1), np.stack([p01, p11, p10], axis=1))
-    return np.stack([t1, t2], axis=1).reshape(-1, 3).astype(np.int64)
+    faces = np.stack([t1, t2], axis=1).reshape(-1, 3).astype(np.int64)
+    faces.setflags(write=False)
+    return faces
