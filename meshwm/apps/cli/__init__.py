@@ -163,6 +163,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         return EXIT_PIPE
     except (ValueError, TypeError, OSError) as exc:
         message = " ".join(str(exc).split()) or type(exc).__name__
+        if "more than the limit of" in message and hasattr(args, "max_faces"):
+            # A --grid output at N = 2048 has 8.4M faces: over the reader's default.
+            message += " (--max-faces raises it)"
         print(f"meshwm: error: {message}", file=sys.stderr)
         return EXIT_ERROR
     except MemoryError:

@@ -371,7 +371,7 @@ BAD_OPTIONS = [
     ("mark_size_4", ["--mark-size", "4"], "--mark-size"),
     ("mark_size_512", ["--mark-size", "512"], "--mark-size"),
     ("max_faces_0", ["--max-faces", "0"], "--max-faces"),
-    ("max_faces_too_small", ["--max-faces", "100"], "limit of 100"),
+    ("max_faces_too_small", ["--max-faces", "100"], "limit of 100 (--max-faces raises it)"),
     ("mark_missing", ["--mark", "@missing.png"], "missing.png"),
     ("mark_truncated", ["--mark", "@truncated.png"], "truncated.png"),
     ("mark_uniform", ["--mark", "@uniform.png"], "uniform.png"),
