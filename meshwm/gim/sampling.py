@@ -207,16 +207,25 @@ def near_grid_faces(
         Indices into ``f``; every face within ``tolerance`` of a grid point is among them.
     """
     scale = size - 1
-    slack = 1e-9  # grid coordinates are rounded quotients: keep every box that may touch one
     out = []
     for lo in range(0, len(f), _BOX_CHUNK):
-        g = f[lo : lo + _BOX_CHUNK]
-        a, b, c = u[g[:, 0]], u[g[:, 1]], u[g[:, 2]]
-        first = np.ceil((np.minimum(np.minimum(a, b), c) - tolerance) * scale - slack)
-        last = np.floor((np.maximum(np.maximum(a, b), c) + tolerance) * scale + slack)
+        first, last, _ = _grid_boxes(u, f[lo : lo + _BOX_CHUNK], scale, tolerance)
         inside = (first <= last) & (last >= 0) & (first <= scale)
         out.append(lo + np.flatnonzero(inside[:, 0] & inside[:, 1]))
     return np.concatenate(out) if out else np.zeros(0, dtype=np.int64)
+
+
+def _grid_boxes(
+    u: NDArray[np.float64], g: NDArray[np.int64], scale: int, tolerance: float
+) -> tuple[NDArray[np.float64], NDArray[np.float64], list[NDArray[np.float64]]]:
+    """The first and last grid index (column j, row i) each face's UV box, widened by
+    ``tolerance``, may hold (first > last: none), and the faces' corners' UVs."""
+    slack = 1e-9  # grid coordinates are rounded quotients: keep every box that may touch one
+    corner = [u[g[:, k]] for k in range(3)]
+    a, b, c = corner
+    first = np.ceil((np.minimum(np.minimum(a, b), c) - tolerance) * scale - slack)
+    last = np.floor((np.maximum(np.maximum(a, b), c) + tolerance) * scale + slack)
+    return first, last, corner
 
 
 #: Face-and-grid-point pairs tested at once (:func:`locate_grid_points`): about 100 MB.
@@ -261,14 +270,30 @@ def locate_grid_points(
     >>> locate_grid_points(uv, np.array([[0, 1, 3], [0, 3, 2]]), 3).tolist()
     [0, 0, 0, 1, 0, 0, 1, 1, 0]
     """
-    scale = size - 1
     nf = len(f)
     # Per grid point: the lowest triangle that holds it exactly, else nf + the lowest that
     # holds it within the slack, else 2 nf.
     best = np.full(size * size, 2 * nf, dtype=np.int64)
-    corner = [u[f[:, k]] for k in range(3)]
-    lo = np.ceil(np.minimum(np.minimum(corner[0], corner[1]), corner[2]) * scale - 1e-9)
-    hi = np.floor(np.maximum(np.maximum(corner[0], corner[1]), corner[2]) * scale + 1e-9)
+    for start in range(0, nf, _BOX_CHUNK):
+        _locate_chunk(u, f, start, size, slack, best)
+    found = np.where(best < nf, best, best - nf)
+    found[best >= 2 * nf] = -1
+    return found
+
+
+def _locate_chunk(
+    u: NDArray[np.float64],
+    f: NDArray[np.int64],
+    start: int,
+    size: int,
+    slack: float,
+    best: NDArray[np.int64],
+) -> None:
+    """:func:`locate_grid_points` for the faces from ``start`` (a chunk), into ``best``."""
+    scale = size - 1
+    nf = len(f)
+    g = f[start : start + _BOX_CHUNK]
+    lo, hi, corner = _grid_boxes(u, g, scale, 0.0)
     lo = np.maximum(lo, 0).astype(np.int64)
     width = np.maximum(np.minimum(hi, scale).astype(np.int64) - lo + 1, 0)  # (F, 2): j, i
     count = width[:, 0] * width[:, 1]
@@ -279,13 +304,13 @@ def locate_grid_points(
     sign = -np.sign(det)  # edge 0 × (-edge 2): twice the signed area
     reach = [slack * np.hypot(e[:, 0], e[:, 1]) for e in edge]
     ends = np.cumsum(count)
-    start = 0
-    while start < nf:
-        base = int(ends[start - 1]) if start else 0
-        stop = max(int(np.searchsorted(ends, base + _PAIR_CHUNK, side="right")), start + 1)
-        faces = np.arange(start, stop)
+    first = 0
+    while first < len(g):
+        base = int(ends[first - 1]) if first else 0
+        stop = max(int(np.searchsorted(ends, base + _PAIR_CHUNK, side="right")), first + 1)
+        faces = np.arange(first, stop)
         faces = faces[(count[faces] > 0) & (sign[faces] != 0)]
-        start = stop
+        first = stop
         if len(faces) == 0:
             continue
         k = count[faces]
@@ -308,11 +333,9 @@ def locate_grid_points(
             exact &= inner >= 0
             near &= inner >= -reach[e][face]
         point = i * size + j
+        face += start
         np.minimum.at(best, point[exact], face[exact])
         np.minimum.at(best, point[near & ~exact], face[near & ~exact] + nf)
-    found = np.where(best < nf, best, best - nf)
-    found[best >= 2 * nf] = -1
-    return found
 
 
 def sampling_matrix(

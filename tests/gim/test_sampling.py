@@ -215,5 +215,7 @@ def test_points_off_the_domain_are_not_located_and_chunks_change_nothing(monkeyp
     assert inside.sum() > 0.3 * N * N
     for p in np.flatnonzero(inside)[::7]:
         assert _holds_exactly(uv[faces[found[p]]], points[p])
-    monkeypatch.setattr(sampling_module, "_PAIR_CHUNK", 50)  # a few faces per chunk
+    monkeypatch.setattr(sampling_module, "_PAIR_CHUNK", 50)  # a few faces' pairs at once
+    assert_array_equal(locate_grid_points(uv, faces, N), found)
+    monkeypatch.setattr(sampling_module, "_BOX_CHUNK", 37)  # and a few faces per chunk
     assert_array_equal(locate_grid_points(uv, faces, N), found)
