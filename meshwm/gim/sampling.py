@@ -248,12 +248,9 @@ def locate_grid_points(
 
     Parameters
     ----------
-    u : (V, 2) float64 ndarray
-        The map of each vertex.
-    f : (F, 3) int64 ndarray
-        Triangles as indices into ``u``.
-    size : int
-        Grid size N: the points ``(j, i) / (N - 1)``, row ``i * N + j``.
+    u, f, size
+        As for :func:`near_grid_faces`: the map of each vertex, the triangles over it, the
+        grid size N (grid point ``(j, i) / (N - 1)`` is row ``i * N + j``).
     slack : float, optional
         How far (in UV units) outside a triangle a point may lie and still be in it: rounding
         on an edge.
