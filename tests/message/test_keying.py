@@ -85,3 +85,43 @@ def test_prefix_property_of_the_stream():
 def test_bad_arguments(call, error, match):
     with pytest.raises(error, match=match):
         call()
+
+
+@pytest.mark.parametrize("secret", [b"k", b"x" * 63, b"y" * 64, b"z" * 65, bytes(range(200))])
+def test_bytes_are_hmacs_for_keys_shorter_and_longer_than_its_block(secret):
+    # HMAC pads a key to 64 bytes and hashes a longer one first: spelled out, the same bytes.
+    for length in (1, 31, 32, 33, 100):
+        expected = b"".join(
+            hmac.new(secret, b"p\x00" + k.to_bytes(8, "big"), hashlib.sha256).digest()
+            for k in range(-(-length // 32))
+        )[:length]
+        assert key_bytes(secret, "p", length) == expected
+    assert (
+        key_bytes("é" * 40, "p", 8)
+        == hmac.new(("é" * 40).encode(), b"p\x00" + bytes(8), hashlib.sha256).digest()[:8]
+    )
+
+
+@pytest.mark.parametrize("count", [0, 1, 2, 3, 100, 4097, 142_884])
+@pytest.mark.parametrize("key", ["secret", b"\x00\x01"])
+def test_permutation_is_the_draw_by_draw_fisher_yates(key, count):
+    # The swaps' indices drawn at once where no draw is rejected: the same permutation as
+    # drawing them one by one with rejection sampling.
+    from meshwm.message.keying import _fisher_yates
+
+    raw = key_bytes(key, "slots", 8 * (count + 16))
+    np.testing.assert_array_equal(
+        keyed_permutation(key, "slots", count), _fisher_yates(key, "slots", count, raw)
+    )
+
+
+def test_rejection_test_matches_integer_arithmetic():
+    from meshwm.message.keying import _rejected
+
+    top = 2**64 - 1
+    bounds = [2, 3, 5, 7, 1 << 20, (1 << 20) + 1, 142_884, 2**63, 2**63 + 1, 2**64 - 1]
+    for b in bounds:
+        limit = (2**64 // b) * b
+        for x in {0, b - 1, limit - 1, min(limit, top), top, max(limit - b, 0)}:
+            got = _rejected(np.array([x], dtype=np.uint64), np.array([b], dtype=np.uint64))
+            assert bool(got[0]) == (x >= limit), (x, b)
