@@ -77,26 +77,25 @@ def embed_gim_robust(
     frames, scale = local_frames(approx)
     live = scale[layout.row, layout.col] > 0
     guard = _guard(approx, layout)  # the calibration's embeddings share it
+
+    def embed_at(step: float) -> NDArray[np.float64]:
+        steps = _steps(approx, layout, step, guard=guard)
+        return _embed_at(gim, bits, layout, frames, scale, steps, cover)
+
     if options.tangential_step is not None:
         step = options.tangential_step
-        marked = _embed_at(
-            gim, bits, layout, frames, scale, _steps(approx, layout, step, guard=guard), cover
-        )
+        marked = embed_at(step)
     else:
         # Dithered quantisation moves each coefficient by a uniform fraction of its step, so
         # the distortion is proportional to the step: two corrections reach the target.
         step = _CALIBRATION_START
         for _ in range(3):
-            marked = _embed_at(
-                gim, bits, layout, frames, scale, _steps(approx, layout, step, guard=guard), cover
-            )
+            marked = embed_at(step)
             measured = normals.distortion(marked)
             if measured <= 0:
                 break
             step = min(step * options.distortion / measured, 1.0)
-        marked = _embed_at(
-            gim, bits, layout, frames, scale, _steps(approx, layout, step, guard=guard), cover
-        )
+        marked = embed_at(step)
     report = {
         "profile": "robust",
         "step": step,
@@ -167,23 +166,23 @@ def _embed_at(
             if round_ + 1 < _ROUNDS:
                 details = details + world - _details_of_border(_border_of_change(world, n), n)
         else:
-            delta = _reconstruct(world, cover)
+            delta = _reconstruct(world)
             delta[border] = 0.0
             marked += delta
     if not strips:
         return marked
-    marked = gim + _reconstruct(total, cover)
+    marked = gim + _reconstruct(total)
     for edge in (np.s_[0, :], np.s_[-1, :], np.s_[:, 0], np.s_[:, -1]):
         marked[edge] = gim[edge]
     return marked
 
 
-def _reconstruct(world: NDArray[np.float64], cover: list) -> NDArray[np.float64]:
-    """The image whose only coefficients are the level-3 details ``world``, all three channels
-    in one call (the finer levels' details None: zero, bit for bit, without reconstructing
-    them)."""
+def _reconstruct(world: NDArray[np.float64]) -> NDArray[np.float64]:
+    """The image whose only coefficients are the level-3 details ``world`` (3 bands, m, m, 3),
+    all three channels in one call (the finer levels' details None: zero, bit for bit,
+    without reconstructing them)."""
     return pywt.waverec2(
-        [np.zeros_like(cover[0]), tuple(world), *[(None, None, None)] * (len(cover) - 2)],
+        [np.zeros_like(world[0]), tuple(world), *[(None, None, None)] * (LEVEL - 1)],
         WAVELET,
         mode="periodization",
         axes=(0, 1),
@@ -212,12 +211,7 @@ def _border_of_change(world: NDArray[np.float64], n: int) -> NDArray[np.float64]
     out = np.empty((4, n, 3))
     for axis in (0, 1):
         part = np.roll(world, h, axis=1 + axis).take(np.arange(2 * h), axis=1 + axis)
-        image = pywt.waverec2(
-            [np.zeros_like(part[0]), tuple(part), *[(None, None, None)] * (LEVEL - 1)],
-            WAVELET,
-            mode="periodization",
-            axes=(0, 1),
-        )
+        image = _reconstruct(part)
         middle = h << LEVEL
         out[2 * axis] = image.take(middle, axis=axis)  # row (column) 0
         out[2 * axis + 1] = image.take(middle - 1, axis=axis)  # row (column) N - 1
