@@ -56,6 +56,7 @@ import scipy.sparse as sp
 from numpy.typing import NDArray
 from scipy.sparse.csgraph import connected_components, dijkstra, reverse_cuthill_mckee
 
+from meshwm._concurrent import beside
 from meshwm._digest import LastResult, arrays_key
 from meshwm.errors import MeshError
 from meshwm.gim.cut import CutMesh, area_centroid, cut_open, path_edges
@@ -426,8 +427,13 @@ def canonical_labelling(
     at-a-time traversal, bit for bit.
     """
     faces = np.asarray(faces, dtype=np.int64)
-    n = int(n_vertices)
-    rot = _rotation(n, faces)
+    return _labelling(_rotation(int(n_vertices), faces), int(n_vertices), source, first)
+
+
+def _labelling(
+    rot: _Rotation, n: int, source: int, first: int
+) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """:func:`canonical_labelling` in the rotation system ``rot`` of its faces."""
     key = source * n + first
     entry = int(np.searchsorted(rot.keys, key))
     if entry >= len(rot.keys) or rot.keys[entry] != key:
@@ -718,8 +724,10 @@ def stable_cut(
     """
     vertices = np.asarray(vertices, dtype=np.float64)
     faces = np.asarray(faces, dtype=np.int64)
-    (source, first), near_ties = cut_start(vertices, faces, steps=steps, lam=lam, rank=rank)
-    order, parent = canonical_labelling(len(vertices), faces, source=source, first=first)
+    # The rotation system depends on the faces alone: found beside the smoothed copy.
+    with beside(_rotation, len(vertices), faces) as rotation:
+        (source, first), near_ties = cut_start(vertices, faces, steps=steps, lam=lam, rank=rank)
+        order, parent = _labelling(rotation.result(), len(vertices), source, first)
     label = np.empty_like(order)
     label[order] = np.arange(len(order))
     if euler_characteristic(len(vertices), faces) != 2:

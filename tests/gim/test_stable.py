@@ -147,6 +147,16 @@ def test_labelling_rejects_bad_input():
         canonical_labelling(4, np.array([[0, 1, 2], [0, 1, 3]]), source=0, first=1)
 
 
+def test_stable_cut_of_a_fin_raises_the_labellings_error():
+    """The rotation system is found beside the smoothed copy (a second thread): its error on a
+    fin (three faces on one edge) still reaches the caller, after the start was found."""
+    v = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0.3, 0.3, 0.9]])
+    f = np.array([[0, 1, 2], [1, 0, 3], [0, 1, 4], [0, 2, 5], [2, 1, 5], [1, 4, 5], [4, 0, 5]])
+    cut_start(v, f)  # the start is found
+    with pytest.raises(MeshError, match="not edge-manifold"):
+        stable_cut(v, f)
+
+
 def test_tutte_map_of_a_fan():
     faces = np.array([[0, 1, 5], [1, 2, 5], [2, 3, 5], [3, 4, 5], [4, 0, 5]])
     uv = tutte_map(faces, np.array([3, 0, 1, 2, 4, 5]))
