@@ -35,6 +35,7 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
+from meshwm._concurrent import beside
 from meshwm._digest import LastResult, arrays_key
 from meshwm._validate import DEFAULT_MAX_FACES, check_mesh
 from meshwm._vector import face_cross, row_norm
@@ -265,15 +266,20 @@ def _clean_mesh(
     n_in = len(v)
     v, f, source = _merge_exact_duplicates(v, f)  # source: each vertex's input vertex
     report["vertices_merged"] = n_in - len(source)
-    f, dropped, area = _drop_bad_faces(v, f)
-    report.update(dropped)
-    if len(f) == 0:
-        raise MeshError("mesh has no faces of non-zero area")
-    n_merged = len(v)
-    v, f, kept = _referenced(v, f)
-    source = source[kept]
-    report["vertices_unreferenced"] = n_merged - len(kept)
-    copied, f, labels, counts = structure(v, f)
+    # The connectivity's work (depending on the faces alone) beside the positions' check of
+    # the faces: it is this mesh's unless a face is dropped or a vertex left unused.
+    with beside(structure, v, f) as ahead:
+        merged_faces = f
+        f, dropped, area = _drop_bad_faces(v, f)
+        report.update(dropped)
+        if len(f) == 0:
+            raise MeshError("mesh has no faces of non-zero area")
+        n_merged = len(v)
+        v, f, kept = _referenced(v, f)
+        source = source[kept]
+        report["vertices_unreferenced"] = n_merged - len(kept)
+        same = len(f) == len(merged_faces) and len(kept) == n_merged
+        copied, f, labels, counts = ahead.result() if same else structure(v, f)
     v = v[copied]
     source = source[copied]
     report.update(counts)
