@@ -19,7 +19,9 @@ References
 from __future__ import annotations
 
 import dataclasses
-from typing import Any, NamedTuple
+from collections.abc import Callable
+from functools import partial
+from typing import Any, NamedTuple, TypeVar
 
 import igl
 import numpy as np
@@ -27,6 +29,7 @@ from numpy.typing import NDArray
 from scipy.spatial import cKDTree
 from trimesh.triangles import closest_point
 
+from meshwm._concurrent import beside
 from meshwm._digest import LastResult, arrays_key
 from meshwm._vector import face_cross, row_norm
 from meshwm.errors import CapacityError, MeshError
@@ -58,6 +61,8 @@ __all__ = [
     "normal_rms",
     "surface_peak",
 ]
+
+_T = TypeVar("_T")
 
 #: Passes of (sample, quantise, transfer) after the first.
 KEEP_PASSES = 3
@@ -439,34 +444,49 @@ def _carry_radial(
     bits: NDArray[np.uint8],
     *,
     key: str | bytes,
-) -> tuple[_Clamped, dict[str, Any]]:
+    alongside: Callable[[NDArray[np.float64]], _T] | None = None,
+) -> tuple[_Clamped, dict[str, Any], _T | None]:
     """The radial carrier on top of ``displacement``, then the peaks clamped (see module notes).
 
     ``faces`` are the input's faces over ``positions`` (every component: the radial carrier
     reads the whole point set); ``clamp_faces`` the surface whose peaks are capped.  A clamp
     that moves a projection off its lattice point is followed by one more radial pass.
+
+    ``alongside(d)`` of the clamped displacement is computed in a second thread while the
+    carrier is read back (both are numpy and scipy work that releases the GIL), and returned
+    with it: the embedder's check of the cut's start, which comes next.  None where the carrier
+    was not made (too few points, no pose).
     """
     n = radial_size(len(bits))
     d = np.array(displacement, dtype=np.float64)
     report: dict[str, Any] = {"radial_n": n}
     if point_count(positions, faces) < MIN_POINTS:  # too few to carry it
-        return _clamp_peaks(positions, clamp_faces, d), {"radial_n": None, "radial": "too small"}
+        clamped = _clamp_peaks(positions, clamp_faces, d)
+        return clamped, {"radial_n": None, "radial": "too small"}, None
     passes = RADIAL_PASSES
+    after: _T | None = None
     for _ in range(1 + _RADIAL_REPAIRS):
         try:
             mark = embed_radial(
                 positions + d, faces, bits, key=key, n=n, passes=passes, read_back=False
             )
         except MeshError as exc:  # no pose (a flat point set): the surface carrier alone
-            return _clamp_peaks(positions, clamp_faces, d), {"radial_n": None, "radial": str(exc)}
+            clamped = _clamp_peaks(positions, clamp_faces, d)
+            return clamped, {"radial_n": None, "radial": str(exc)}, None
         clamped = _clamp_peaks(positions, clamp_faces, mark.vertices - positions)
         d = clamped.displacement
-        got, _, _ = radial_read(positions + d, faces, len(bits), key=key, n=n)
-        report["radial_ber"] = float(np.mean(got != bits))
-        if report["radial_ber"] == 0:
-            break
+        with beside(alongside or _nothing, d) as next_step:
+            got, _, _ = radial_read(positions + d, faces, len(bits), key=key, n=n)
+            report["radial_ber"] = float(np.mean(got != bits))
+            if report["radial_ber"] == 0:
+                after = next_step.result()
+                break
         passes = 1
-    return clamped, report
+    return clamped, report, after
+
+
+def _nothing(_: NDArray[np.float64]) -> None:
+    return None
 
 
 def _mark_at(
@@ -550,14 +570,17 @@ def _mark_at(
     # needed by the radial carrier, the start check or the read-back after them.
     del transfer
     radial_faces = surface.inverse[faces_in]
-    clamped, radial = _carry_radial(positions, radial_faces, faces, d, bits, key=key)
+    clamped, radial, start = _carry_radial(
+        positions, radial_faces, faces, d, bits, key=key, alongside=partial(_keep_start, surface)
+    )
     d = clamped.displacement
     # The start last: the radial carrier moves vertices along their distance from the centre,
     # which is what picks the start (it tipped spot's and camelhead's after it had been put
     # back, 2 of 36 dev marks, when this came first).  Where the bump that puts it back costs
     # the radial carrier bits, the carrier is made again and the start checked once more.
     for again in (True, False):
-        d, report["start"] = _keep_start(surface, d)
+        d, report["start"] = _keep_start(surface, d) if start is None else start
+        start = None
         if report["start"] != "nudged" or not radial.get("radial_n"):
             break
         got, _, _ = radial_read(
@@ -566,7 +589,7 @@ def _mark_at(
         radial["radial_ber"] = float(np.mean(got != bits))
         if radial["radial_ber"] == 0 or not again:
             break
-        clamped, radial = _carry_radial(positions, radial_faces, faces, d, bits, key=key)
+        clamped, radial, _ = _carry_radial(positions, radial_faces, faces, d, bits, key=key)
         d = clamped.displacement
     report.update(radial)
     # The clamp's last round measured this displacement's largest distance, unless the start

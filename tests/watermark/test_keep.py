@@ -344,6 +344,44 @@ def test_the_start_is_checked_after_the_radial_carrier(spot_mesh):
     np.testing.assert_array_equal(after.map.cut.order[:2], before.map.cut.order[:2])
 
 
+def test_the_start_is_checked_beside_the_last_radial_read_only(spot_mesh, monkeypatch):
+    """The start's check runs beside the radial carrier's read-back (a second thread); where
+    the read finds a wrong bit and the carrier is made again, the check of the discarded
+    displacement is not used: what comes back is the check of the final one."""
+    from meshwm.watermark import keep
+
+    v, f = spot_mesh
+    surface = surface_of(v, f)
+    bits = np.random.default_rng(5).integers(0, 2, 256).astype(np.uint8)
+    d0 = np.zeros_like(surface.positions)
+    real_read = keep.radial_read
+    reads = []
+
+    def read_once_wrong(*args, **kwargs):
+        got, confidence, pose = real_read(*args, **kwargs)
+        reads.append(1)
+        if len(reads) == 1:
+            got = got.copy()
+            got[0] ^= 1
+        return got, confidence, pose
+
+    monkeypatch.setattr(keep, "radial_read", read_once_wrong)
+    seen = []
+
+    def check(d):
+        seen.append(d.copy())
+        return d.copy()
+
+    faces = surface.inverse[f]
+    clamped, report, after = keep._carry_radial(
+        surface.positions, faces, surface.faces, d0, bits, key=KEY, alongside=check
+    )
+    assert len(reads) == 2 and len(seen) == 2 and report["radial_ber"] == 0
+    assert not np.array_equal(seen[0], seen[1])  # the carrier was made again
+    np.testing.assert_array_equal(after, clamped.displacement)
+    np.testing.assert_array_equal(after, seen[1])
+
+
 def test_a_mesh_moved_through_the_grid_basis_reads_blind(kitten_mesh, monkeypatch):
     # The grid basis is for meshes many times finer than the grid (a 0.5M-vertex scan at
     # N = 128: 33 vertices a sample); forced here on kitten (0.6 a sample), it marks within
