@@ -183,6 +183,12 @@ def _frame(positions: NDArray[np.float64], faces: NDArray[np.int64]) -> _Frame:
     return found
 
 
+def _input_measures(positions: NDArray[np.float64], faces: NDArray[np.int64]) -> None:
+    """:func:`_frame` and :func:`_host` of the input, found ahead (both are memoised)."""
+    _frame(positions, faces)
+    _host(positions, faces)
+
+
 def _used(faces: NDArray[np.int64], n: int) -> NDArray[np.int64]:
     """The positions some face uses, increasing (a count, not a sort)."""
     return np.flatnonzero(np.bincount(np.asarray(faces, dtype=np.int64).ravel(), minlength=n))
@@ -663,8 +669,13 @@ def embed_kept(
         )
     tried: dict[str, Any] = {}
     worst = 1.0
-    for n in _size_order(sizes, len(bits)):
-        image = sample_surface(surface, size=n)
+    order = _size_order(sizes, len(bits))
+    # What the distortion and the distances measure of the input (memoised), beside the
+    # first size's sampling.
+    with beside(_input_measures, surface.positions, surface.faces):
+        first = sample_surface(surface, size=order[0])
+    for n in order:
+        image = first if n == order[0] else sample_surface(surface, size=n)
         try:
             attempt = _mark_at(
                 surface, image, bits, key=key, params=params, faces_in=np.asarray(faces, np.int64)
