@@ -442,6 +442,17 @@ def _read_all(folder: str, jobs: int) -> float:
     return time.perf_counter() - t
 
 
+def _compile_package() -> None:
+    """Byte-compile meshwm's modules, as ``pip install`` does (a package imported from a source
+    tree with ``PYTHONDONTWRITEBYTECODE`` set compiles a module it imports inside a timed
+    operation every time: 0.02-0.04 s of a 134k-vertex embedding, none of the floor's)."""
+    import compileall
+
+    import meshwm
+
+    compileall.compile_dir(Path(meshwm.__file__).parent, quiet=1)
+
+
 def main() -> None:
     if len(sys.argv) > 1 and sys.argv[1] == "--child":
         # The memory settings `meshwm`'s command line makes for itself (meshwm/_malloc.py): a
@@ -464,6 +475,7 @@ def main() -> None:
     parser.add_argument("--throughput", action="store_true", help="only the 200-file check")
     parser.add_argument("--files", type=int, default=200)
     args = parser.parse_args()
+    _compile_package()
     with tempfile.TemporaryDirectory() as tmp:
         cache = args.cache or Path(tmp)
         cache.mkdir(parents=True, exist_ok=True)
