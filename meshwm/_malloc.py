@@ -37,6 +37,7 @@ __all__ = ["keep_freed_memory"]
 _M_TRIM_THRESHOLD = -1
 _M_MMAP_MAX = -4
 _M_MMAP_THRESHOLD = -3
+_M_ARENA_MAX = -8
 #: Arrays up to this size come from the heap rather than their own mapping (a worker).
 MMAP_THRESHOLD = 64 << 20
 #: Free memory at the top of the heap is returned to the system beyond this (a worker).
@@ -57,7 +58,10 @@ def keep_freed_memory(*, until_exit: bool = False) -> bool:
         :data:`MMAP_THRESHOLD` and its trim threshold to :data:`TRIM_THRESHOLD`, so arrays
         larger than that still go back to the system when freed.  True (one command on one
         mesh, then exit): no allocation is mapped on its own and the heap is never trimmed,
-        so even a 5M-vertex mesh's arrays reuse the pages of the last ones.
+        so even a 5M-vertex mesh's arrays reuse the pages of the last ones; and every thread
+        allocates from the one arena, so what the second thread of :mod:`meshwm._concurrent`
+        frees is reused by the first (with an arena of its own, the kept embedding at 5M
+        vertices peaked at 7.47 GiB against 7.43 without the thread; one arena: 7.40).
     """
     global _done
     if _done:
@@ -73,6 +77,7 @@ def keep_freed_memory(*, until_exit: bool = False) -> bool:
     if until_exit:
         ok = mallopt(_M_MMAP_MAX, 0) == 1
         ok = mallopt(_M_TRIM_THRESHOLD, _NEVER) == 1 and ok
+        ok = mallopt(_M_ARENA_MAX, 1) == 1 and ok
     else:
         ok = mallopt(_M_MMAP_THRESHOLD, MMAP_THRESHOLD) == 1
         ok = mallopt(_M_TRIM_THRESHOLD, TRIM_THRESHOLD) == 1 and ok
