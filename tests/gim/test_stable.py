@@ -395,3 +395,52 @@ def test_smoothing_near_a_change_declines_without_its_base_or_for_a_wide_change(
     assert not stable.smoothed_near(v, v + 1e-3, f)  # every row moved: the cone is the mesh
     assert not stable.smoothed_near(v, v.copy(), f)  # nothing moved
     assert (*stable.arrays_key(v + 1e-3, f), 50, 0.5) not in stable._MEMO
+
+
+def test_a_smoothed_copy_asked_from_two_threads_at_once_is_made_once(spot_mesh, monkeypatch):
+    """The embedder reads its output back while its start's check smooths the same mesh: the
+    second asker waits for the first's copy (the same arrays) instead of making its own."""
+    import threading
+
+    from meshwm.gim import stable
+
+    v, f = spot_mesh
+    v = v + 1e-3  # not memoised by another test
+    stable._MEMO.clear()
+    made = []
+    real = stable.smoothed_copy
+    go = threading.Event()
+
+    def slow_copy(*args, **kwargs):
+        made.append(threading.get_ident())
+        go.wait(5)
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(stable, "smoothed_copy", slow_copy)
+    found = []
+    askers = [threading.Thread(target=lambda: found.append(cut_start(v, f))) for _ in range(2)]
+    for t in askers:
+        t.start()
+    while not made:  # the first asker is smoothing; the second asks meanwhile
+        threading.Event().wait(0.01)
+    threading.Event().wait(0.1)
+    go.set()
+    for t in askers:
+        t.join()
+    assert len(made) == 1 and len(found) == 2 and found[0] == found[1]
+    assert not stable._RUNNING
+
+
+def test_an_error_while_smoothing_is_raised_and_nothing_left_running(spot_mesh, monkeypatch):
+    from meshwm.gim import stable
+
+    v, f = spot_mesh
+    stable._MEMO.clear()
+
+    def broken(*args, **kwargs):
+        raise MeshError("smoothing failed")
+
+    monkeypatch.setattr(stable, "smoothed_copy", broken)
+    with pytest.raises(MeshError, match="smoothing failed"):
+        cut_start(v + 2e-3, f)
+    assert not stable._RUNNING

@@ -372,14 +372,57 @@ def test_the_start_is_checked_beside_the_last_radial_read_only(spot_mesh, monkey
         seen.append(d.copy())
         return d.copy()
 
+    meant = []
+
+    def meanwhile(d):
+        meant.append(d.copy())
+        return "read back"
+
     faces = surface.inverse[f]
-    clamped, report, after = keep._carry_radial(
-        surface.positions, faces, surface.faces, d0, bits, key=KEY, alongside=check
+    clamped, report, after, early = keep._carry_radial(
+        surface.positions,
+        faces,
+        surface.faces,
+        d0,
+        bits,
+        key=KEY,
+        alongside=check,
+        meanwhile=meanwhile,
     )
     assert len(reads) == 2 and len(seen) == 2 and report["radial_ber"] == 0
     assert not np.array_equal(seen[0], seen[1])  # the carrier was made again
     np.testing.assert_array_equal(after, clamped.displacement)
     np.testing.assert_array_equal(after, seen[1])
+    # The work made meanwhile, for the final displacement only.
+    assert early == "read back" and len(meant) == 1
+    np.testing.assert_array_equal(meant[0], clamped.displacement)
+
+
+def test_the_read_back_made_while_the_start_is_checked_is_used_only_for_its_displacement(
+    spot_mesh, monkeypatch
+):
+    """The embedder reads its output back while the start is checked; where the check nudges
+    the start back (spot, key "k1"), that read-back was of another displacement and is made
+    again; where the check keeps it ("k2"), it is the one used.  Both read the id back."""
+    from meshwm.watermark import keep
+
+    v, f = spot_mesh
+    real_mark_at = keep._mark_at
+    early = []
+
+    def mark_at(*args, **kwargs):
+        attempt = real_mark_at(*args, **kwargs)
+        early.append(attempt.read_back)
+        return attempt
+
+    monkeypatch.setattr(keep, "_mark_at", mark_at)
+    starts = {}
+    for key in ("k1", "k2"):
+        marked = embed(v, f, key=key, ident=bytes(8), distances=False)
+        starts[marked.report["start"]] = early[-1]
+        assert verify(marked.vertices, f, key=key, ident=bytes(8)).detected
+    assert starts["nudged"] is None
+    assert starts["kept"] is not None and starts["kept"][0]
 
 
 def test_a_mesh_moved_through_the_grid_basis_reads_blind(kitten_mesh, monkeypatch):
