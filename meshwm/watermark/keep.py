@@ -526,7 +526,7 @@ def _mark_at(
     key: str | bytes,
     params: WatermarkParams,
     faces_in: NDArray[np.int64],
-    read_back: Callable[[NDArray[np.float64]], tuple[bool, float]] | None = None,
+    read_back: Callable[[NDArray[np.float64]], tuple[bool, float] | None] | None = None,
 ) -> _Attempt:
     """Embed at one size: calibrate the step on the input's distortion, then passes; then the
     radial carrier and the peak clamp (:func:`_carry_radial`)."""
@@ -715,6 +715,14 @@ def embed_kept(
         )
         return decoder.reads(bits, key=key)
 
+    def read_back_if_kept(d: NDArray[np.float64]) -> tuple[bool, float] | None:
+        """:func:`read_back` made ahead, while the start is checked, only where the start is
+        the input's (no bump, the input's map): a tipped start is put back first, and its
+        read-back would try every other start's map in vain (igea at 537k vertices: 16 s)."""
+        if keep_start(surface, d, rounds=0) is None:  # waits for the check's smoothed copy
+            return None
+        return read_back(d)
+
     # What the distortion and the distances measure of the input (memoised), beside the
     # first size's sampling.
     with beside(_input_measures, surface.positions, surface.faces):
@@ -729,7 +737,7 @@ def embed_kept(
                 key=key,
                 params=params,
                 faces_in=np.asarray(faces, np.int64),
-                read_back=read_back,
+                read_back=read_back_if_kept,
             )
         except CapacityError as exc:
             tried[str(n)] = str(exc)
