@@ -12,10 +12,9 @@ from meshwm import _malloc
 
 glibc = pytest.mark.skipif(platform.libc_ver()[0] != "glibc", reason="mallopt is glibc's")
 
-# An 8 MB array, as the decoder makes hundreds of: where it came from, and whether its memory
-# stays in the process once freed (glibc's mallinfo2: mapped bytes, free bytes in the heap).
-_PROBE = """
-import ctypes, sys
+# glibc's mallinfo2 from a probe process (heap bytes, mapped bytes, free bytes in the heap).
+_MALLINFO = """
+import ctypes, sys, threading
 import numpy as np
 class Info(ctypes.Structure):
     _fields_ = [(k, ctypes.c_size_t) for k in (
@@ -23,6 +22,13 @@ class Info(ctypes.Structure):
         "fordblks", "keepcost")]
 libc = ctypes.CDLL("libc.so.6")
 libc.mallinfo2.restype = Info
+"""
+
+# An 8 MB array, as the decoder makes hundreds of: where it came from, and whether its memory
+# stays in the process once freed (mapped bytes, free bytes in the heap).
+_PROBE = (
+    _MALLINFO
+    + """
 if sys.argv[1] != "plain":
     from meshwm._malloc import keep_freed_memory
     assert keep_freed_memory(until_exit=sys.argv[1] == "until_exit")
@@ -31,6 +37,7 @@ mapped = libc.mallinfo2().hblkhd
 del a
 print(mapped, libc.mallinfo2().fordblks)
 """
+)
 
 
 def _probe(mode: str, size: int = 1 << 20) -> tuple[int, int]:
@@ -85,15 +92,9 @@ def test_importing_meshwm_does_not_tune_malloc():
     assert out.stdout.strip() == "False"
 
 
-_THREAD_PROBE = """
-import ctypes, sys, threading
-import numpy as np
-class Info(ctypes.Structure):
-    _fields_ = [(k, ctypes.c_size_t) for k in (
-        "arena", "ordblks", "smblks", "hblks", "hblkhd", "usmblks", "fsmblks", "uordblks",
-        "fordblks", "keepcost")]
-libc = ctypes.CDLL("libc.so.6")
-libc.mallinfo2.restype = Info
+_THREAD_PROBE = (
+    _MALLINFO
+    + """
 from meshwm._malloc import keep_freed_memory
 assert keep_freed_memory(until_exit=True)
 size = 128 << 20
@@ -107,6 +108,7 @@ before = libc.mallinfo2().arena
 b = np.ones(size // 8)
 print(libc.mallinfo2().arena - before)
 """
+)
 
 
 @glibc
