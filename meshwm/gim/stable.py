@@ -48,7 +48,6 @@ from __future__ import annotations
 
 import threading
 from collections import OrderedDict
-from concurrent.futures import Future
 from typing import NamedTuple
 
 import igl
@@ -561,8 +560,6 @@ def cut_start(
 _MEMO: OrderedDict[tuple, tuple[NDArray[np.float64], _Sources, tuple[int, ...]]] = OrderedDict()
 _MEMO_SIZE = 2
 _MEMO_LOCK = threading.Lock()
-#: The smoothed copies being computed, by key (:func:`_smoothed_sources`).
-_RUNNING: dict[tuple, Future] = {}
 
 
 def _smoothed_sources(
@@ -580,24 +577,7 @@ def _smoothed_sources(
         if key in _MEMO:
             _MEMO.move_to_end(key)
             return _MEMO[key]
-        # Computed once even when asked from two threads at once (the embedder reads its
-        # output back while its start's check smooths it): the second waits for the first.
-        running = _RUNNING.get(key)
-        if running is None:
-            mine: Future[tuple[NDArray[np.float64], _Sources, tuple[int, ...]]] = Future()
-            _RUNNING[key] = mine
-    if running is not None:
-        return running.result()
-    try:
-        found = _remember(key, smoothed_copy(vertices, faces, steps=steps, lam=lam), faces)
-    except BaseException as exc:
-        mine.set_exception(exc)
-        raise
-    finally:
-        with _MEMO_LOCK:
-            del _RUNNING[key]
-    mine.set_result(found)
-    return found
+    return _remember(key, smoothed_copy(vertices, faces, steps=steps, lam=lam), faces)
 
 
 def _remember(

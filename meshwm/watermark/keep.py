@@ -63,7 +63,6 @@ __all__ = [
 ]
 
 _T = TypeVar("_T")
-_U = TypeVar("_U")
 
 #: Up to this many positions the cut start's check runs beside the radial carrier's read-back
 #: (:func:`_carry_radial`); above, after it: at 5M vertices the two together put the kept
@@ -446,9 +445,6 @@ def _largest_above(
 class _Attempt(NamedTuple):
     displacement: NDArray[np.float64]
     report: dict[str, Any]
-    #: The blind read-back of this displacement, where it was made while the start was
-    #: checked (:func:`_carry_radial`'s ``meanwhile``), else None.
-    read_back: tuple[bool, float] | None = None
 
 
 def _carry_radial(
@@ -460,8 +456,7 @@ def _carry_radial(
     *,
     key: str | bytes,
     alongside: Callable[[NDArray[np.float64]], _T] | None = None,
-    meanwhile: Callable[[NDArray[np.float64]], _U] | None = None,
-) -> tuple[_Clamped, dict[str, Any], _T | None, _U | None]:
+) -> tuple[_Clamped, dict[str, Any], _T | None]:
     """The radial carrier on top of ``displacement``, then the peaks clamped (see module notes).
 
     ``faces`` are the input's faces over ``positions`` (every component: the radial carrier
@@ -470,21 +465,17 @@ def _carry_radial(
 
     ``alongside(d)`` of the clamped displacement is computed in a second thread while the
     carrier is read back (both are numpy and scipy work that releases the GIL), and returned
-    with it: the embedder's check of the cut's start, which comes next.  ``meanwhile(d)`` is
-    computed in this thread once the read-back found every bit, before waiting for
-    ``alongside``: the embedder's blind read-back, valid if the check leaves ``d`` as it is
-    (None where it raised: the read-back made again after the check raises it again).  Both
-    None where the carrier was not made (too few points, no pose).
+    with it: the embedder's check of the cut's start, which comes next.  None where the carrier
+    was not made (too few points, no pose).
     """
     n = radial_size(len(bits))
     d = np.array(displacement, dtype=np.float64)
     report: dict[str, Any] = {"radial_n": n}
     if point_count(positions, faces) < MIN_POINTS:  # too few to carry it
         clamped = _clamp_peaks(positions, clamp_faces, d)
-        return clamped, {"radial_n": None, "radial": "too small"}, None, None
+        return clamped, {"radial_n": None, "radial": "too small"}, None
     passes = RADIAL_PASSES
     after: _T | None = None
-    early: _U | None = None
     for _ in range(1 + _RADIAL_REPAIRS):
         try:
             mark = embed_radial(
@@ -492,26 +483,17 @@ def _carry_radial(
             )
         except MeshError as exc:  # no pose (a flat point set): the surface carrier alone
             clamped = _clamp_peaks(positions, clamp_faces, d)
-            return clamped, {"radial_n": None, "radial": str(exc)}, None, None
+            return clamped, {"radial_n": None, "radial": str(exc)}, None
         clamped = _clamp_peaks(positions, clamp_faces, mark.vertices - positions)
         d = clamped.displacement
         with beside(alongside or _nothing, d) as next_step:
             got, _, _ = radial_read(positions + d, faces, len(bits), key=key, n=n)
             report["radial_ber"] = float(np.mean(got != bits))
             if report["radial_ber"] == 0:
-                early = None if meanwhile is None else _speculate(meanwhile, d)
                 after = next_step.result()
                 break
         passes = 1
-    return clamped, report, after, early
-
-
-def _speculate(fn: Callable[[NDArray[np.float64]], _U], d: NDArray[np.float64]) -> _U | None:
-    """``fn(d)``, or None where it raised (work ahead of a check that may discard it)."""
-    try:
-        return fn(d)
-    except Exception:  # made again in the ordinary way, which raises it
-        return None
+    return clamped, report, after
 
 
 def _nothing(_: NDArray[np.float64]) -> None:
@@ -526,7 +508,6 @@ def _mark_at(
     key: str | bytes,
     params: WatermarkParams,
     faces_in: NDArray[np.int64],
-    read_back: Callable[[NDArray[np.float64]], tuple[bool, float] | None] | None = None,
 ) -> _Attempt:
     """Embed at one size: calibrate the step on the input's distortion, then passes; then the
     radial carrier and the peak clamp (:func:`_carry_radial`)."""
@@ -601,18 +582,10 @@ def _mark_at(
     del transfer
     radial_faces = surface.inverse[faces_in]
     check = partial(_keep_start, surface) if len(positions) <= _BESIDE_POSITIONS else None
-    clamped, radial, start, early = _carry_radial(
-        positions,
-        radial_faces,
-        faces,
-        d,
-        bits,
-        key=key,
-        alongside=check,
-        meanwhile=read_back if check is not None else None,
+    clamped, radial, start = _carry_radial(
+        positions, radial_faces, faces, d, bits, key=key, alongside=check
     )
     d = clamped.displacement
-    read_for = d  # what ``early`` read back
     # The start last: the radial carrier moves vertices along their distance from the centre,
     # which is what picks the start (it tipped spot's and camelhead's after it had been put
     # back, 2 of 36 dev marks, when this came first).  Where the bump that puts it back costs
@@ -628,7 +601,7 @@ def _mark_at(
         radial["radial_ber"] = float(np.mean(got != bits))
         if radial["radial_ber"] == 0 or not again:
             break
-        clamped, radial, _, _ = _carry_radial(positions, radial_faces, faces, d, bits, key=key)
+        clamped, radial, _ = _carry_radial(positions, radial_faces, faces, d, bits, key=key)
         d = clamped.displacement
     report.update(radial)
     # The clamp's last round measured this displacement's largest distance, unless the start
@@ -642,7 +615,7 @@ def _mark_at(
     report["distortion"] = distortion(d)
     report["peak"] = peak
     report["ber"], report["confidence"] = read(d)
-    return _Attempt(d, report, early if d is read_for else None)
+    return _Attempt(d, report)
 
 
 def _keep_start(surface: Surface, d: NDArray[np.float64]) -> tuple[NDArray[np.float64], str]:
@@ -703,26 +676,6 @@ def embed_kept(
     tried: dict[str, Any] = {}
     worst = 1.0
     order = _size_order(sizes, len(bits))
-
-    def read_back(d: NDArray[np.float64]) -> tuple[bool, float]:
-        """Read the mesh moved by ``d`` back as a blind reader will: the map re-derived from
-        the marked mesh itself (the input's map is a speed hint: reused only where provably
-        the same)."""
-        out = (surface.positions + d)[surface.inverse]
-        hints = {"surface": {"like": surface}}
-        decoder = Decoder(
-            out, faces, params=params, max_faces=max_faces, hints=hints, readers=("surface",)
-        )
-        return decoder.reads(bits, key=key)
-
-    def read_back_if_kept(d: NDArray[np.float64]) -> tuple[bool, float] | None:
-        """:func:`read_back` made ahead, while the start is checked, only where the start is
-        the input's (no bump, the input's map): a tipped start is put back first, and its
-        read-back would try every other start's map in vain (igea at 537k vertices: 16 s)."""
-        if keep_start(surface, d, rounds=0) is None:  # waits for the check's smoothed copy
-            return None
-        return read_back(d)
-
     # What the distortion and the distances measure of the input (memoised), beside the
     # first size's sampling.
     with beside(_input_measures, surface.positions, surface.faces):
@@ -731,22 +684,19 @@ def embed_kept(
         image = first if n == order[0] else sample_surface(surface, size=n)
         try:
             attempt = _mark_at(
-                surface,
-                image,
-                bits,
-                key=key,
-                params=params,
-                faces_in=np.asarray(faces, np.int64),
-                read_back=read_back_if_kept,
+                surface, image, bits, key=key, params=params, faces_in=np.asarray(faces, np.int64)
             )
         except CapacityError as exc:
             tried[str(n)] = str(exc)
             continue
         out = (surface.positions + attempt.displacement)[surface.inverse]
-        if attempt.read_back is None:
-            ok, ber = read_back(attempt.displacement)
-        else:  # made while the start was checked, which left the displacement as it was
-            ok, ber = attempt.read_back
+        # Read back as a blind reader will: the map re-derived from the marked mesh itself.
+        # (The input's map is a speed hint: reused only where provably the same.)
+        hints = {"surface": {"like": surface}}
+        decoder = Decoder(
+            out, faces, params=params, max_faces=max_faces, hints=hints, readers=("surface",)
+        )
+        ok, ber = decoder.reads(bits, key=key)
         tried[str(n)] = {"ber": ber}
         if ok:
             report = {**attempt.report, "n": n, "sizes_tried": tried, **_clean_counts(surface)}

@@ -372,68 +372,14 @@ def test_the_start_is_checked_beside_the_last_radial_read_only(spot_mesh, monkey
         seen.append(d.copy())
         return d.copy()
 
-    meant = []
-
-    def meanwhile(d):
-        meant.append(d.copy())
-        return "read back"
-
     faces = surface.inverse[f]
-    clamped, report, after, early = keep._carry_radial(
-        surface.positions,
-        faces,
-        surface.faces,
-        d0,
-        bits,
-        key=KEY,
-        alongside=check,
-        meanwhile=meanwhile,
+    clamped, report, after = keep._carry_radial(
+        surface.positions, faces, surface.faces, d0, bits, key=KEY, alongside=check
     )
     assert len(reads) == 2 and len(seen) == 2 and report["radial_ber"] == 0
     assert not np.array_equal(seen[0], seen[1])  # the carrier was made again
     np.testing.assert_array_equal(after, clamped.displacement)
     np.testing.assert_array_equal(after, seen[1])
-    # The work made meanwhile, for the final displacement only.
-    assert early == "read back" and len(meant) == 1
-    np.testing.assert_array_equal(meant[0], clamped.displacement)
-
-
-def test_the_read_back_made_while_the_start_is_checked_is_used_only_for_its_displacement(
-    spot_mesh, monkeypatch
-):
-    """The embedder reads its output back while the start is checked, where the start is the
-    input's ("k2": kept): that read-back is the one used.  Where the mark tipped the start
-    ("k1": nudged back), none is made ahead (it would read a map that is not the input's and
-    try every other start in vain): one read-back, after the start is put back.  Both read
-    the id back."""
-    from meshwm.watermark import keep
-
-    v, f = spot_mesh
-    real_mark_at = keep._mark_at
-    real_decoder = keep.Decoder
-    early, decoders = [], []
-
-    def mark_at(*args, **kwargs):
-        attempt = real_mark_at(*args, **kwargs)
-        early.append(attempt.read_back)
-        return attempt
-
-    def decoder(*args, **kwargs):
-        decoders.append(1)
-        return real_decoder(*args, **kwargs)
-
-    monkeypatch.setattr(keep, "_mark_at", mark_at)
-    monkeypatch.setattr(keep, "Decoder", decoder)
-    starts, made = {}, {}
-    for key in ("k1", "k2"):
-        decoders.clear()
-        marked = embed(v, f, key=key, ident=bytes(8), distances=False)
-        starts[marked.report["start"]] = early[-1]
-        made[marked.report["start"]] = len(decoders)
-        assert verify(marked.vertices, f, key=key, ident=bytes(8)).detected
-    assert starts["nudged"] is None
-    assert starts["kept"] is not None and starts["kept"][0]
-    assert made == {"nudged": 1, "kept": 1}
 
 
 def test_a_mesh_moved_through_the_grid_basis_reads_blind(kitten_mesh, monkeypatch):
