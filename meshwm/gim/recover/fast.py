@@ -210,6 +210,6 @@ def _read_in_order(
         if any(reading.index is not None for _, reading in readings):
             return None
         hypotheses += sum(reading.hypotheses for _, reading in readings)
-    _fill_fold_tips(index, table)
+    _fill_fold_tips(index, table.prev, table.next)
     square = index.reshape(n, n)
     return RecoveredGrid(n, square, v[square], hypotheses, 1.0, 1)

@@ -164,7 +164,7 @@ def _read_order_free(
         and np.sum(index < 0) <= 4 * n
     )
     if complete:
-        _fill_fold_tips(index, table)
+        _fill_fold_tips(index, table.prev, table.next)
     grid = index.reshape(n, n)
     found = grid >= 0
     gim = np.full((n, n, 3), np.nan)

@@ -42,28 +42,26 @@ class _GridTable:
         self.trust = (~border[outer[:, 0]]).astype(int) + (~border[outer[:, 1]]).astype(int)
         self.mixed = rows[~border[rows[:, 2]] & (border[rows[:, 0]] | border[rows[:, 1]])]
         # Each border sample's two neighbours along the perimeter of the square.
-        loop = np.concatenate(
-            [
-                np.arange(n),  # row 0, left to right
-                np.arange(1, n) * n + n - 1,  # column N-1, downwards
-                (n - 1) * n + np.arange(n - 2, -1, -1),  # row N-1, right to left
-                np.arange(n - 2, 0, -1) * n,  # column 0, upwards
-            ]
-        )
-        self.prev = np.full(n * n, -1, dtype=np.int64)
-        self.next = np.full(n * n, -1, dtype=np.int64)
-        self.prev[loop] = np.roll(loop, 1)
-        self.next[loop] = np.roll(loop, -1)
-        # Every cell in each of its 4 rotations, for the row sweep (see propagate._sweep):
-        # ``spin[r]`` is (N-1, N-1, 4) corners A, B, C, D, ``spin_ac[r]`` the A-C diagonal.
+        self.prev, self.next = _perimeter(n)
+
+    @functools.cached_property
+    def spin(self) -> NDArray[np.int64]:
+        """Every cell in each of its 4 rotations, for the row sweep (see propagate._sweep):
+        ``spin[r]`` is (N-1, N-1, 4) corners A, B, C, D.  Made when first asked for (134 MB
+        at N = 1024, and a complete grid read in order never asks)."""
+        n = self.n
         ci, cj = np.divmod(np.arange((n - 1) ** 2), n - 1)
         c00 = ci * n + cj
         cycle = [c00, c00 + 1, c00 + n + 1, c00 + n]
-        self.spin = np.stack(
+        return np.stack(
             [np.stack([cycle[(r + k) % 4] for k in range(4)], axis=-1) for r in range(4)]
         ).reshape(4, n - 1, n - 1, 4)
-        main = self.main.reshape(n - 1, n - 1)
-        self.spin_ac = np.stack([main, ~main, main, ~main])
+
+    @functools.cached_property
+    def spin_ac(self) -> NDArray[np.bool_]:
+        """Per rotation of :attr:`spin`, whether the cell's A-C corners are its diagonal."""
+        main = self.main.reshape(self.n - 1, self.n - 1)
+        return np.stack([main, ~main, main, ~main])
 
     def _cells_around(self, positions: NDArray[np.int64]) -> tuple[NDArray, NDArray]:
         """The (up to) 4 cells with a corner at each position: (k, 4) cell index, valid mask."""
@@ -109,6 +107,25 @@ class _GridTable:
         own = positions[:, None, None]
         keep = ok[..., None] & ((rows[..., 0] == own) | (rows[..., 1] == own))
         return rows[keep], ac[keep]
+
+
+def _perimeter(n: int) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """Each border sample's two neighbours along the perimeter of the N-square (previous, next;
+    -1 off the border), the loop running along row 0, column N-1, row N-1 backwards and
+    column 0 upwards."""
+    loop = np.concatenate(
+        [
+            np.arange(n),  # row 0, left to right
+            np.arange(1, n) * n + n - 1,  # column N-1, downwards
+            (n - 1) * n + np.arange(n - 2, -1, -1),  # row N-1, right to left
+            np.arange(n - 2, 0, -1) * n,  # column 0, upwards
+        ]
+    )
+    prev = np.full(n * n, -1, dtype=np.int64)
+    nxt = np.full(n * n, -1, dtype=np.int64)
+    prev[loop] = np.roll(loop, 1)
+    nxt[loop] = np.roll(loop, -1)
+    return prev, nxt
 
 
 @functools.lru_cache(maxsize=4)

@@ -52,18 +52,21 @@ def _consistent(
     return not boxed.any()
 
 
-def _fill_fold_tips(index: NDArray[np.int64], table: _GridTable) -> None:
+def _fill_fold_tips(
+    index: NDArray[np.int64], prev: NDArray[np.int64], nxt: NDArray[np.int64]
+) -> None:
     """Give the samples that are not in the mesh the vertex of a perimeter neighbour, in place.
 
     Only for a complete grid (see :func:`~meshwm.gim.recover.recover_grid`): there the missing
     samples are the tips of welded folds (a cut end, or the two corners a path cut joins):
     their triangles closed into fins, which :func:`meshwm.gim.to_mesh.geometry_image_to_mesh`
     drops.  Each takes the vertex of the nearest sample along the perimeter that has one (the
-    earlier one in perimeter order on a tie).  The embedder reads its cover through
+    earlier one in perimeter order on a tie; ``prev``, ``nxt``: the perimeter neighbours,
+    :func:`~meshwm.gim.recover.table._perimeter`).  The embedder reads its cover through
     :func:`~meshwm.gim.recover.recover_grid` too, so both sides see the same values there.
     """
     for m in np.flatnonzero(index < 0):
         a, b = m, m
         while index[a] < 0 and index[b] < 0:
-            a, b = table.prev[a], table.next[b]
+            a, b = prev[a], nxt[b]
         index[m] = index[a] if index[a] >= 0 else index[b]
