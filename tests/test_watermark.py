@@ -6,6 +6,8 @@ spot and the kitten once each, at N = 128, in module fixtures.
 
 from __future__ import annotations
 
+import importlib
+
 import numpy as np
 import pytest
 import trimesh
@@ -501,3 +503,33 @@ def test_a_payload_that_does_not_fit_raises_capacity_error(sheet64, profile):
     params = WatermarkParams(profile=profile, size=64)
     with pytest.raises(CapacityError, match="do not fit"):
         embed_gim(sheet64, np.zeros(100_000, dtype=np.uint8), key=KEY, params=params)
+
+
+def test_grid_embedding_marks_what_it_reads_when_the_expectation_is_wrong(
+    spot_mesh, marked_spot, monkeypatch
+):
+    """The image marked beside the read-back is a prediction: a wrong one costs a second
+    marking, never a different output."""
+    embed_module = importlib.import_module("meshwm.watermark.embed")
+    calls = []
+
+    def wrong(gim, weld):
+        calls.append(1)
+        return np.asarray(gim) * 1.001
+
+    monkeypatch.setattr(embed_module, "expected_reading", wrong)
+    again = embed(*spot_mesh, MARK, key=KEY, params=P128, grid=True)
+    assert calls
+    assert_array_equal(again.vertices, marked_spot.vertices)
+    assert_array_equal(again.faces, marked_spot.faces)
+
+
+def test_grid_embedding_that_does_not_read_back_is_an_internal_error(spot_mesh, monkeypatch):
+    embed_module = importlib.import_module("meshwm.watermark.embed")
+
+    def fails(v, f, **kwargs):
+        raise GridError("no grid")
+
+    monkeypatch.setattr(embed_module, "recover_grid", fails)
+    with pytest.raises(MeshError, match="internal error: the geometry image does not read back"):
+        embed(*spot_mesh, MARK, key=KEY, params=P128, grid=True, distances=False)

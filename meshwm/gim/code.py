@@ -129,6 +129,33 @@ def grid_faces(n: int) -> NDArray[np.int64]:
     return _grid_faces(int(n))
 
 
+def border_cell_faces(n: int) -> NDArray[np.int64]:
+    """The triangles of the cells along the border of an N-grid (cell row or column 0 or
+    N - 2): the rows of :func:`grid_faces` for those cells, in its order, without building it.
+
+    No code cell touches the border, so these cells keep the alternating diagonals.
+
+    Examples
+    --------
+    >>> n = 16
+    >>> cell = np.arange(2 * (n - 1) ** 2) // 2
+    >>> i, j = np.divmod(cell, n - 1)
+    >>> ring = (i == 0) | (j == 0) | (i == n - 2) | (j == n - 2)
+    >>> bool(np.array_equal(border_cell_faces(n), grid_faces(n)[ring]))
+    True
+    """
+    n = int(n)
+    i, j = np.divmod(np.arange((n - 1) ** 2), n - 1)
+    ring = (i == 0) | (j == 0) | (i == n - 2) | (j == n - 2)
+    i, j = i[ring], j[ring]
+    p00 = i * n + j
+    p01, p10, p11 = p00 + 1, p00 + n, p00 + n + 1
+    even = ((i + j) % 2 == 0)[:, None]
+    t1 = np.where(even, np.stack([p00, p01, p11], axis=1), np.stack([p00, p01, p10], axis=1))
+    t2 = np.where(even, np.stack([p00, p11, p10], axis=1), np.stack([p01, p11, p10], axis=1))
+    return np.stack([t1, t2], axis=1).reshape(-1, 3).astype(np.int64)
+
+
 @functools.lru_cache(maxsize=4)
 def _grid_faces(n: int) -> NDArray[np.int64]:
     i, j = np.meshgrid(np.arange(n - 1), np.arange(n - 1), indexing="ij")

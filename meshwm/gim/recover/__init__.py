@@ -88,6 +88,8 @@ a position, so any pose, scale or vertex order reads the same.
 - :mod:`~meshwm.gim.recover.sizes`: the candidate sizes (step 1);
 - :mod:`~meshwm.gim.recover.fast`: the fast path;
 - :mod:`~meshwm.gim.recover.repair`: :func:`drop_irregular`, for welded meshes;
+- :mod:`~meshwm.gim.recover.expect`: what a grid mesh just written reads as, predicted
+  without writing it (the embedder marks it while it reads its output back);
 - :mod:`~meshwm.gim.recover.rule_out`: :func:`rules_out_grid`, the cheap test that a mesh
   holds no grid (most vertices on six triangles, or most faces without a 4-8 grid face's
   corners), asked before the search;
