@@ -14,6 +14,7 @@ import igl
 import numpy as np
 from numpy.typing import NDArray
 
+from meshwm._concurrent import beside
 from meshwm.gim.boundary import Chains, unit_to_uv
 from meshwm.gim.sampling import locate_grid_points, near_grid_faces
 
@@ -80,8 +81,30 @@ def _sample_interior(
     uu, vv = np.meshgrid(g, g)  # uu[i, j] = j / (N - 1), vv[i, j] = i / (N - 1)
     points = np.stack([uu.ravel(), vv.ravel(), np.zeros(n * n)], axis=1)
     face_id, closest = _closest_faces(uv, faces, points, n)
+    # Each point's weights and position depend on it alone: half of them in a second thread
+    # (igea at N = 1024: 0.27 -> 0.17 s; the same numbers, row by row).
+    xyz = np.empty((n * n, 3))
+    half = np.s_[: n * n // 2], np.s_[n * n // 2 :]
+    with beside(_interpolate, vertices, faces, uv, face_id, closest, half[1], xyz) as second:
+        _interpolate(vertices, faces, uv, face_id, closest, half[0], xyz)
+    second.result()  # its error, if it raised one
+    return xyz.reshape(n, n, 3)
+
+
+def _interpolate(
+    vertices: NDArray[np.float64],
+    faces: NDArray[np.int64],
+    uv: NDArray[np.float64],
+    face_id: NDArray[np.int64],
+    closest: NDArray[np.float64],
+    part: slice,
+    out: NDArray[np.float64],
+) -> None:
+    """The surface at the UV points ``closest[part]`` of triangles ``face_id[part]``
+    (barycentric), into ``out[part]``."""
+    face_id = face_id[part]
     tri = uv[faces[face_id]]  # (P, 3, 2)
-    p = closest[:, :2]
+    p = closest[part, :2]
     v0 = tri[:, 1] - tri[:, 0]
     v1 = tri[:, 2] - tri[:, 0]
     v2 = p - tri[:, 0]
@@ -96,8 +119,7 @@ def _sample_interior(
     b2 = (d00 * d21 - d01 * d20) / den
     bary = np.clip(np.stack([1.0 - b1 - b2, b1, b2], axis=1), 0.0, None)
     bary /= bary.sum(axis=1, keepdims=True)
-    xyz = np.einsum("pk,pkd->pd", bary, vertices[faces[face_id]])
-    return xyz.reshape(n, n, 3)
+    out[part] = np.einsum("pk,pkd->pd", bary, vertices[faces[face_id]])
 
 
 def _sample_boundary(gim: NDArray[np.float64], chains: Chains, n: int) -> NDArray[np.int64]:

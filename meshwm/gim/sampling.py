@@ -18,6 +18,7 @@ import numpy as np
 import scipy.sparse as sp
 from numpy.typing import NDArray
 
+from meshwm._concurrent import beside
 from meshwm._validate import check_integer
 
 __all__ = [
@@ -268,28 +269,48 @@ def locate_grid_points(
     [0, 0, 0, 1, 0, 0, 1, 1, 0]
     """
     nf = len(f)
-    # Per grid point: the lowest triangle that holds it exactly, else nf + the lowest that
-    # holds it within the slack, else 2 nf.
-    best = np.full(size * size, 2 * nf, dtype=np.int64)
-    for start in range(0, nf, _BOX_CHUNK):
-        _locate_chunk(u, f, start, size, slack, best)
+    # Half of the triangles in a second thread (numpy's gathers and compares release the
+    # GIL), each half into its own array: the lowest triangle is the lowest of the halves'.
+    # (igea at N = 1024: 0.26 -> 0.17 s; the same array.)
+    half = nf // 2
+    with beside(_locate_part, u, f, half, nf, size, slack) as second:
+        best = _locate_part(u, f, 0, half, size, slack)
+    best = np.minimum(best, second.result())
     found = np.where(best < nf, best, best - nf)
     found[best >= 2 * nf] = -1
     return found
+
+
+def _locate_part(
+    u: NDArray[np.float64],
+    f: NDArray[np.int64],
+    first: int,
+    stop: int,
+    size: int,
+    slack: float,
+) -> NDArray[np.int64]:
+    """:func:`locate_grid_points` over the triangles ``first`` to ``stop`` (not included): per
+    grid point the lowest of them that holds it exactly, else ``len(f)`` + the lowest that holds
+    it within the slack, else ``2 len(f)``."""
+    best = np.full(size * size, 2 * len(f), dtype=np.int64)
+    for start in range(first, stop, _BOX_CHUNK):
+        _locate_chunk(u, f, start, min(start + _BOX_CHUNK, stop), size, slack, best)
+    return best
 
 
 def _locate_chunk(
     u: NDArray[np.float64],
     f: NDArray[np.int64],
     start: int,
+    stop: int,
     size: int,
     slack: float,
     best: NDArray[np.int64],
 ) -> None:
-    """:func:`locate_grid_points` for the faces from ``start`` (a chunk), into ``best``."""
+    """:func:`locate_grid_points` for the faces ``start`` to ``stop`` (a chunk), into ``best``."""
     scale = size - 1
     nf = len(f)
-    g = f[start : start + _BOX_CHUNK]
+    g = f[start:stop]
     lo, hi, corner = _grid_boxes(u, g, scale, 0.0)
     lo = np.maximum(lo, 0).astype(np.int64)
     width = np.maximum(np.minimum(hi, scale).astype(np.int64) - lo + 1, 0)  # (F, 2): j, i
