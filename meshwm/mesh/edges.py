@@ -23,6 +23,7 @@ __all__ = [
     "distinct_rows",
     "edge_topology_counts",
     "euler_characteristic",
+    "rows_all_distinct",
     "uniform_smoothing_operator",
     "unique_edges",
     "unique_rows",
@@ -156,13 +157,7 @@ def _hashed_groups(v: NDArray) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
     if len(v) == 0:
         return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
     bits = np.ascontiguousarray(v).view(np.uint64)
-    mix = np.uint64(0x9E3779B97F4A7C15)
-    h = np.zeros(len(v), dtype=np.uint64)
-    with np.errstate(over="ignore"):
-        for k in range(bits.shape[1]):
-            h = (h ^ bits[:, k]) * mix
-            h ^= h >> np.uint64(29)
-    key = h.view(np.int64)
+    key = _row_hash(bits)
     if _all_distinct(key):
         # What _group gives where no two keys tie (its stable order is then the only one),
         # without its stable sort of random keys (1M rows: 0.1 s against 0.03 s).
@@ -177,6 +172,36 @@ def _hashed_groups(v: NDArray) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
     if not np.array_equal(bits[rep[later]], bits[later]):
         return unique_rows(v)
     return first, inverse
+
+
+def _row_hash(bits: NDArray[np.uint64]) -> NDArray[np.int64]:
+    """A 64-bit hash of each row of 64-bit words."""
+    mix = np.uint64(0x9E3779B97F4A7C15)
+    h = np.zeros(len(bits), dtype=np.uint64)
+    with np.errstate(over="ignore"):
+        for k in range(bits.shape[1]):
+            h = (h ^ bits[:, k]) * mix
+            h ^= h >> np.uint64(29)
+    return h.view(np.int64)
+
+
+def rows_all_distinct(rows: NDArray) -> bool:
+    """Whether no two rows of a float64 or int64 array are bit-identical.
+
+    ``len(distinct_rows(rows)[0]) == len(rows)`` without grouping the rows: a sort of a hash of
+    each, and :func:`distinct_rows` only where two hashes tie (1M rows: 0.03 s against 0.1 s).
+
+    Examples
+    --------
+    >>> rows_all_distinct(np.array([[1.0, 0], [0, 2]])), rows_all_distinct(np.zeros((2, 2)))
+    (True, False)
+    """
+    rows = np.asarray(rows)
+    if len(rows) < 2:
+        return True
+    if _all_distinct(_row_hash(np.ascontiguousarray(rows).view(np.uint64))):
+        return True
+    return len(distinct_rows(rows)[0]) == len(rows)
 
 
 def _all_distinct(key: NDArray[np.int64]) -> bool:

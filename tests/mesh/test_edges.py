@@ -3,11 +3,13 @@
 import numpy as np
 import pytest
 
+from meshwm.mesh import edges as edges_module
 from meshwm.mesh.edges import (
     _odd_vertices,
     _row_order,
     border_half_edges,
     distinct_rows,
+    rows_all_distinct,
     unique_rows,
 )
 
@@ -211,3 +213,17 @@ def test_hashed_groups_of_distinct_rows_skip_the_stable_sort_and_agree_with_it(d
         np.testing.assert_array_equal(a[0], b[0])
         np.testing.assert_array_equal(a[1], b[1])
     assert len(fast[0][0]) == len(distinct) and len(fast[1][0]) == len(distinct)
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_rows_all_distinct_is_whether_every_row_is_its_own_group(seed, monkeypatch):
+    rng = np.random.default_rng(seed)
+    v = _table(rng)
+    every = np.unique(v.view(np.uint64), axis=0).shape[0] == len(v)
+    assert rows_all_distinct(v) == every
+    spread = np.column_stack([v, np.arange(len(v))])  # distinct rows
+    assert rows_all_distinct(spread)
+    # Hashes that all tie (a collision): the rows themselves decide.
+    monkeypatch.setattr(edges_module, "_row_hash", lambda bits: np.zeros(len(bits), np.int64))
+    assert rows_all_distinct(v) == every
+    assert rows_all_distinct(spread)

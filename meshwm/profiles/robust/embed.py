@@ -6,6 +6,7 @@ import numpy as np
 import pywt
 from numpy.typing import NDArray
 
+from meshwm._concurrent import beside
 from meshwm.metrics import psnr
 from meshwm.profiles.robust.options import RobustOptions
 from meshwm.profiles.robust.slots import (
@@ -70,13 +71,16 @@ def embed_gim_robust(
     bits = np.asarray(bits).astype(np.uint8)
     if not np.all(np.isfinite(gim)):
         raise ValueError("gim contains NaN or infinite values")
-    layout = _layout(gim.shape[0], key, len(bits))
-    cover = _wavedec(gim)  # each embedding's first round starts from it
-    normals = _Normals(gim)
-    approx, _ = _split(cover)
-    frames, scale = local_frames(approx)
-    live = scale[layout.row, layout.col] > 0
-    guard = _guard(approx, layout)  # the calibration's embeddings share it
+    # The cover's normals (numpy only) in a second thread while the keyed layout (HMAC, which
+    # holds the GIL) and the decomposition are made (N = 1024: 0.11 s of 0.35 s hidden).
+    with beside(_Normals, gim) as made:
+        layout = _layout(gim.shape[0], key, len(bits))
+        cover = _wavedec(gim)  # each embedding's first round starts from it
+        approx, _ = _split(cover)
+        frames, scale = local_frames(approx)
+        live = scale[layout.row, layout.col] > 0
+        guard = _guard(approx, layout)  # the calibration's embeddings share it
+    normals = made.result()
 
     def embed_at(step: float) -> NDArray[np.float64]:
         steps = _steps(approx, layout, step, guard=guard)
