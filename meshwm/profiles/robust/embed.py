@@ -7,7 +7,7 @@ import pywt
 from numpy.typing import NDArray
 
 from meshwm._concurrent import beside
-from meshwm.metrics import psnr
+from meshwm.metrics import bounding_box_diagonal, psnr
 from meshwm.profiles.robust.options import RobustOptions
 from meshwm.profiles.robust.slots import (
     _CALIBRATION_START,
@@ -282,7 +282,7 @@ class _Normals:
         self.area = np.linalg.norm(normal, axis=-1)
         self.unit = normal / np.where(self.area > 0, self.area, 1.0)[..., None]
         pts = gim.reshape(-1, 3)
-        self.diag = float(np.linalg.norm(pts.max(axis=0) - pts.min(axis=0)))
+        self.diag = bounding_box_diagonal(pts)
         self.total = float(self.area.sum())
         self.gim = gim
 
