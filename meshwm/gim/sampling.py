@@ -293,8 +293,9 @@ def _locate_part(
     grid point the lowest of them that holds it exactly, else ``len(f)`` + the lowest that holds
     it within the slack, else ``2 len(f)``."""
     best = np.full(size * size, 2 * len(f), dtype=np.int64)
-    for start in range(first, stop, _BOX_CHUNK):
-        _locate_chunk(u, f, start, min(start + _BOX_CHUNK, stop), size, slack, best)
+    chunk = _BOX_CHUNK // 2  # two at once (igea at 5M vertices, N = 256: 7.39 GiB with whole ones)
+    for start in range(first, stop, chunk):
+        _locate_chunk(u, f, start, min(start + chunk, stop), size, slack, best)
     return best
 
 
