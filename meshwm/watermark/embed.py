@@ -288,7 +288,7 @@ def _written_and_read(
     n_grid_v = len(out_v) - len(g.other_vertices)
     try:
         cover = recover_grid(out_v[:n_grid_v], out_f[: len(out_f) - len(g.other_faces)])
-    except GridError as exc:  # pragma: no cover - a remesher bug, not bad input
+    except GridError as exc:  # a remesher bug, not bad input
         raise MeshError(f"internal error: the geometry image does not read back ({exc})") from exc
     return out_v, out_f, n_grid_v, cover
 
