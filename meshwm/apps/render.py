@@ -33,6 +33,7 @@ from matplotlib.transforms import IdentityTransform
 from numpy.typing import ArrayLike, NDArray
 
 from meshwm._validate import check_mesh
+from meshwm.metrics import bounding_box_diagonal
 
 __all__ = [
     "ELEVATION",
@@ -464,7 +465,7 @@ def render_comparison(
     v, f = check_mesh(np.asarray(vertices), np.asarray(faces))
     ov, of = check_mesh(np.asarray(other_vertices), np.asarray(other_faces))
     used_other = ov[np.unique(of)]
-    diagonal = float(np.linalg.norm(used_other.max(axis=0) - used_other.min(axis=0)))
+    diagonal = bounding_box_diagonal(used_other)
     if not diagonal > 0:
         raise ValueError("the reference mesh is degenerate: its faces collapse to one point")
     rel = distance_to_surface(v, f, ov, of) / diagonal

@@ -45,6 +45,7 @@ from meshwm.gim.surface import (
     surface_of,
 )
 from meshwm.gim.transfer import Transfer
+from meshwm.metrics import bounding_box_diagonal
 from meshwm.params import WatermarkParams
 from meshwm.profiles import get_profile
 from meshwm.readers.base import SampledImage
@@ -221,7 +222,7 @@ def _host(positions: NDArray[np.float64], faces: NDArray[np.int64]) -> _Host:
         return found
     used = _used(faces, len(positions))
     pts = positions[used]
-    diag = float(np.linalg.norm(pts.max(axis=0) - pts.min(axis=0))) if len(used) else 0.0
+    diag = bounding_box_diagonal(pts) if len(used) else 0.0
     square = np.zeros(len(faces))
     for k in range(3):
         step = ((positions[faces[:, k]] - positions[faces[:, k - 1]]) ** 2).sum(axis=1)
