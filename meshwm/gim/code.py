@@ -148,9 +148,14 @@ def border_cell_faces(n: int) -> NDArray[np.int64]:
     i, j = np.divmod(np.arange((n - 1) ** 2), n - 1)
     ring = (i == 0) | (j == 0) | (i == n - 2) | (j == n - 2)
     i, j = i[ring], j[ring]
-    p00 = i * n + j
+    return _cell_faces(i * n + j, n, (i + j) % 2 == 0)
+
+
+def _cell_faces(p00: NDArray[np.int64], n: int, main: NDArray[np.bool_]) -> NDArray[np.int64]:
+    """The two triangles of each cell with first corner ``p00`` (see :func:`grid_faces`),
+    ``main`` where its diagonal is p00-p11."""
     p01, p10, p11 = p00 + 1, p00 + n, p00 + n + 1
-    even = ((i + j) % 2 == 0)[:, None]
+    even = main[:, None]
     t1 = np.where(even, np.stack([p00, p01, p11], axis=1), np.stack([p00, p01, p10], axis=1))
     t2 = np.where(even, np.stack([p00, p11, p10], axis=1), np.stack([p01, p11, p10], axis=1))
     return np.stack([t1, t2], axis=1).reshape(-1, 3).astype(np.int64)
@@ -159,14 +164,9 @@ def border_cell_faces(n: int) -> NDArray[np.int64]:
 @functools.lru_cache(maxsize=4)
 def _grid_faces(n: int) -> NDArray[np.int64]:
     i, j = np.meshgrid(np.arange(n - 1), np.arange(n - 1), indexing="ij")
-    p00 = (i * n + j).ravel()
-    p01, p10, p11 = p00 + 1, p00 + n, p00 + n + 1
     even = (i + j) % 2 == 0
     flip = flipped_cells(n)
     even[flip[:, 0], flip[:, 1]] = False
-    even = even.ravel()[:, None]
-    t1 = np.where(even, np.stack([p00, p01, p11], axis=1), np.stack([p00, p01, p10], axis=1))
-    t2 = np.where(even, np.stack([p00, p11, p10], axis=1), np.stack([p01, p11, p10], axis=1))
-    faces = np.stack([t1, t2], axis=1).reshape(-1, 3).astype(np.int64)
+    faces = _cell_faces((i * n + j).ravel(), n, even.ravel())
     faces.setflags(write=False)
     return faces
