@@ -13,13 +13,17 @@ A large mesh's arrays are larger than any threshold (at 5M vertices each per-cor
 0.24 GB), so they were still mapped and unmapped one by one, every page faulted in and zeroed
 by the kernel again: the kept embedding of igea Loop-subdivided to 2.1M vertices spent 32 s of
 its 123 s in the kernel (20 s of 108 s with a 64 MB mmap threshold).  A command-line run (one
-command, then exit) maps no allocation on its own and never trims its heap: 2.1M 91 s (5 s in
-the kernel), 5M 361 s → 250 s, peak memory within 0.3 GB of the defaults' (5M: 7.34 GiB
-against 7.07; 2026-12-04, ``embed`` timed in one process); the processes of ``verify
---jobs``, forked from it, inherit that.  A command that writes a geometry image's grid
-(``remesh``, ``embed --grid``) keeps the thresholds: at 5M vertices its heap, never trimmed,
-reached 8.30 GiB (7.4 with the thresholds; issue 16's budget is 8).  So does a Dask worker,
-which lives on after the files it checks, so one huge file's memory does not stay with it.
+command, then exit) maps only allocations over 256 MB on its own (at 5M vertices, the
+per-face corner positions and the like) and never trims its heap: 2.1M 91 s (5 s in the
+kernel), 5M 361 s → 250 s (2026-12-04, ``embed`` timed in one process); the processes of
+``verify --jobs``, forked from it, inherit that.  With nothing mapped at all, a grid embedding's
+heap at 5M vertices came within 0.02 GiB of issue 16's 8 GB budget (7.43 GiB, 7.59 in another
+run); over 256 MB mapped, 7.37 / 7.39 GiB at N = 256 / 1024 and 7.40 for the kept embedding
+(2026-12-05).  Until then a command writing a geometry image's grid kept a worker's
+thresholds, and paid for it in page faults: igea (134k vertices) at N = 1024 2.67-2.79 s
+against 2.43-2.52 s (1.0-1.3 s of system time against 0.5-0.6).  A Dask worker keeps a
+worker's thresholds: it lives on after the files it checks, so one huge file's memory does
+not stay with it.
 
 Only the processes meshwm runs itself call this (the command line, and the workers of
 :mod:`meshwm.apps.batch`, Dask workers included, whose nanny sets ``MALLOC_TRIM_THRESHOLD_`` to
@@ -35,13 +39,14 @@ import sys
 __all__ = ["keep_freed_memory"]
 
 _M_TRIM_THRESHOLD = -1
-_M_MMAP_MAX = -4
 _M_MMAP_THRESHOLD = -3
 _M_ARENA_MAX = -8
 #: Arrays up to this size come from the heap rather than their own mapping (a worker).
 MMAP_THRESHOLD = 64 << 20
 #: Free memory at the top of the heap is returned to the system beyond this (a worker).
 TRIM_THRESHOLD = 256 << 20
+#: Arrays up to this size come from the heap in a process that keeps its memory until it exits.
+UNTIL_EXIT_MMAP_THRESHOLD = 256 << 20
 #: mallopt's largest value: a process that keeps its memory until it exits never trims.
 _NEVER = 2**31 - 1
 
@@ -57,8 +62,9 @@ def keep_freed_memory(*, until_exit: bool = False) -> bool:
         False (a worker that checks file after file): glibc's mmap threshold raised to
         :data:`MMAP_THRESHOLD` and its trim threshold to :data:`TRIM_THRESHOLD`, so arrays
         larger than that still go back to the system when freed.  True (one command on one
-        mesh, then exit): no allocation is mapped on its own and the heap is never trimmed,
-        so even a 5M-vertex mesh's arrays reuse the pages of the last ones; and every thread
+        mesh, then exit): only allocations over :data:`UNTIL_EXIT_MMAP_THRESHOLD` are mapped
+        on their own and the heap is never trimmed, so even a 5M-vertex mesh's per-corner
+        arrays reuse the pages of the last ones; and every thread
         allocates from the one arena, so what the second thread of :mod:`meshwm._concurrent`
         frees is reused by the first (with an arena of its own, the kept embedding at 5M
         vertices peaked at 7.47 GiB against 7.43 without the thread; one arena: 7.40).
@@ -75,7 +81,7 @@ def keep_freed_memory(*, until_exit: bool = False) -> bool:
         return False
     mallopt.argtypes, mallopt.restype = [ctypes.c_int, ctypes.c_int], ctypes.c_int
     if until_exit:
-        ok = mallopt(_M_MMAP_MAX, 0) == 1
+        ok = mallopt(_M_MMAP_THRESHOLD, UNTIL_EXIT_MMAP_THRESHOLD) == 1
         ok = mallopt(_M_TRIM_THRESHOLD, _NEVER) == 1 and ok
         ok = mallopt(_M_ARENA_MAX, 1) == 1 and ok
     else:

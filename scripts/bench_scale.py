@@ -455,11 +455,11 @@ def _compile_package() -> None:
 
 def main() -> None:
     if len(sys.argv) > 1 and sys.argv[1] == "--child":
-        # The memory settings `meshwm`'s command line makes for itself (meshwm/_malloc.py): a
-        # grid embedding a worker's thresholds, the rest (the floor too) all memory kept.
+        # The memory settings `meshwm`'s command line makes for itself (meshwm/_malloc.py),
+        # for every operation (the floor too): memory kept until the process exits.
         from meshwm._malloc import keep_freed_memory
 
-        keep_freed_memory(until_exit=not sys.argv[2].startswith("embed_grid"))
+        keep_freed_memory(until_exit=True)
         print(json.dumps(_child(*sys.argv[2:5])))
         return
     if len(sys.argv) > 1 and sys.argv[1] == "--read-all":

@@ -149,11 +149,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"meshwm: error: {exc}", file=sys.stderr)
         return EXIT_ERROR
     # Temporaries reuse the memory of the last ones, not fresh zeroed pages (meshwm/_malloc.py):
-    # a command keeps all its memory until it exits, except one that writes a geometry image's
-    # grid: its heap, never trimmed, went past the 8 GB budget at 5M vertices (8.30 GiB), so it
-    # keeps a worker's thresholds.
-    grid = command == ["remesh"] or bool(getattr(args, "grid", False))
-    keep_freed_memory(until_exit=not grid)
+    # a command keeps its memory until it exits.
+    keep_freed_memory(until_exit=True)
     try:
         code = int(args.run(args))
         sys.stdout.flush()  # a closed pipe shows here, not in the interpreter's last flush
