@@ -14,6 +14,7 @@ key are independent.
 from __future__ import annotations
 
 import hashlib
+import hmac
 
 import numpy as np
 from numpy.typing import NDArray
@@ -21,7 +22,6 @@ from numpy.typing import NDArray
 __all__ = ["key_bytes", "keyed_permutation", "keyed_uniform"]
 
 _BLOCK = hashlib.sha256().digest_size  # 32 bytes per HMAC call
-_HMAC_BLOCK = hashlib.sha256().block_size  # 64: HMAC pads the key to this
 
 
 def _check_key(key: str | bytes) -> bytes:
@@ -71,21 +71,18 @@ def key_bytes(key: str | bytes, purpose: str, length: int) -> bytes:
     length = _check_count(length, "length")
     label = purpose.encode("utf-8") + b"\x00"
     blocks = -(-length // _BLOCK)
-    # HMAC spelled out (RFC 2104) on hashlib's states after the padded key (and the label),
-    # copied per block: the same bytes as ``hmac``'s copies at a third of their cost.
-    pad = (secret if len(secret) <= _HMAC_BLOCK else hashlib.sha256(secret).digest()).ljust(
-        _HMAC_BLOCK, b"\x00"
-    )
-    inner = hashlib.sha256(bytes(b ^ 0x36 for b in pad) + label)
-    outer = hashlib.sha256(bytes(b ^ 0x5C for b in pad))
-    out = []
-    for k in range(blocks):
-        h = inner.copy()
-        h.update(k.to_bytes(8, "big"))
-        o = outer.copy()
-        o.update(h.digest())
-        out.append(o.digest())
-    return b"".join(out)[:length]
+    if blocks == 0:
+        return b""
+    # PBKDF2-HMAC-SHA256 with one iteration is block i = HMAC(key, salt || i as 4 bytes
+    # big-endian) for i = 1, 2, ... (RFC 8018, 5.2): with the salt ``label || 4 zero bytes``
+    # that is block k = i of the construction above, the counter's high half zero (k < 2**26
+    # here).  So OpenSSL makes blocks 1.. in one call, without the GIL (igea's layout at
+    # N = 1024: 2.3 MB in 0.073 -> 0.02 s), and block 0 is one HMAC.
+    first = hmac.digest(secret, label + bytes(8), "sha256")
+    if blocks == 1:
+        return first[:length]
+    rest = hashlib.pbkdf2_hmac("sha256", secret, label + bytes(4), 1, _BLOCK * (blocks - 1))
+    return (first + rest)[:length]
 
 
 def keyed_uniform(key: str | bytes, purpose: str, count: int) -> NDArray[np.float64]:

@@ -102,6 +102,19 @@ def test_bytes_are_hmacs_for_keys_shorter_and_longer_than_its_block(secret):
     )
 
 
+@pytest.mark.parametrize("purpose", ["", "p", "meshwm/robust/v1/n1024/slots", "é" * 40])
+@pytest.mark.parametrize("secret", [b"k", b"y" * 64, bytes(range(200))])
+def test_bytes_are_the_per_block_hmacs_at_every_length(secret, purpose):
+    """The stream is made by PBKDF2 with one iteration after a first HMAC block: block for
+    block the construction's HMACs, across block boundaries and at thousands of blocks."""
+    label = purpose.encode() + b"\x00"
+    stream = b"".join(
+        hmac.new(secret, label + k.to_bytes(8, "big"), hashlib.sha256).digest() for k in range(2000)
+    )
+    for length in (0, 1, 31, 32, 33, 63, 64, 65, 96, 1000, 32 * 2000 - 1, 32 * 2000):
+        assert key_bytes(secret, purpose, length) == stream[:length]
+
+
 @pytest.mark.parametrize("count", [0, 1, 2, 3, 100, 4097, 142_884])
 @pytest.mark.parametrize("key", ["secret", b"\x00\x01"])
 def test_permutation_is_the_draw_by_draw_fisher_yates(key, count):
