@@ -64,10 +64,10 @@ def keep_freed_memory(*, until_exit: bool = False) -> bool:
         larger than that still go back to the system when freed.  True (one command on one
         mesh, then exit): only allocations over :data:`UNTIL_EXIT_MMAP_THRESHOLD` are mapped
         on their own and the heap is never trimmed, so even a 5M-vertex mesh's per-corner
-        arrays reuse the pages of the last ones; and every thread
-        allocates from the one arena, so what the second thread of :mod:`meshwm._concurrent`
-        frees is reused by the first (with an arena of its own, the kept embedding at 5M
-        vertices peaked at 7.47 GiB against 7.43 without the thread; one arena: 7.40).
+        arrays reuse the pages of the last ones; and every thread allocates from the one
+        arena, so what the second thread of :mod:`meshwm._concurrent` frees is reused by the
+        first (with an arena of its own, the kept embedding at 5M vertices peaked at 7.47 GiB
+        against 7.43 without the thread; one arena: 7.40).
     """
     global _done
     if _done:

@@ -63,7 +63,7 @@ def test_big_arrays_come_from_the_heap_and_stay_for_reuse():
 
 
 @glibc
-def test_a_one_command_process_keeps_even_the_largest_arrays():
+def test_a_one_command_process_keeps_what_a_worker_gives_back():
     """A 128 MB array (a 5M-vertex mesh's per-corner arrays are 240 MB): a worker's thresholds
     still map it on its own and give it back; a process that keeps its memory until it exits
     takes it from the heap and keeps it for the next one."""
