@@ -259,10 +259,10 @@ def test_candidates_decode_many_keys_like_fresh_candidates():
     assert received._unsmoothed is not None and len(received._unsmoothed) == 12
 
 
-@pytest.mark.parametrize("n", [64, 256, 512])
-def test_the_rounds_in_strips_are_the_whole_images_transforms(n):
+@pytest.mark.parametrize("n", [64, 256, 512, 1024])
+def test_the_rounds_along_the_border_are_the_whole_images_transforms(n):
     # _embed_at transforms x, y and z at once, reconstructs the whole image once, and follows
-    # the rounds' border corrections in strips along the border: the marked image is the
+    # the rounds' border corrections along the border alone: the marked image is the
     # rounds computed with whole-image transforms, channel by channel (what it computed
     # before), to rounding.
     import pywt
@@ -314,3 +314,40 @@ def test_the_rounds_in_strips_are_the_whole_images_transforms(n):
     np.testing.assert_allclose(got, marked, rtol=0, atol=1e-13)
     np.testing.assert_array_equal(got[border], gim[border])
     assert np.abs(got - gim).max() > 1e-4
+
+
+@pytest.mark.parametrize("n", [64, 512, 2048])
+def test_the_border_operators_are_the_whole_images_transforms(n):
+    # _border_of_change and _details_of_border use the 1-D operators of the separable 2-D
+    # transforms: the same numbers as pywt's whole-image transforms, to rounding.
+    import pywt
+
+    from meshwm.profiles.robust import embed as module
+
+    rng = np.random.default_rng(n)
+    m = n >> 3
+    world = rng.normal(size=(3, m, m, 3))
+    image = np.stack(
+        [
+            pywt.waverec2(
+                [np.zeros((m, m)), tuple(world[b, ..., k] for b in range(3))]
+                + [(None, None, None)] * 2,
+                "sym4",
+                mode="periodization",
+            )
+            for k in range(3)
+        ],
+        axis=-1,
+    )
+    border = module._border_of_change(world, n)
+    want = np.stack([image[0], image[-1], image[:, 0], image[:, -1]])
+    np.testing.assert_allclose(border, want, rtol=0, atol=1e-13 * np.abs(want).max())
+
+    values = rng.normal(size=(4, n, 3))
+    only = np.zeros((n, n, 3))
+    only[:, 0], only[:, -1] = values[2], values[3]
+    only[0], only[-1] = values[0], values[1]  # the corners are the rows'
+    coeffs = [pywt.wavedec2(only[..., k], "sym4", mode="periodization", level=3) for k in range(3)]
+    details = np.stack([np.stack([c[1][b] for c in coeffs], axis=-1) for b in range(3)])
+    got = module._details_of_border(values, n)
+    np.testing.assert_allclose(got, details, rtol=0, atol=1e-13 * np.abs(details).max())

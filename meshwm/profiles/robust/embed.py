@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 import pywt
 from numpy.typing import NDArray
@@ -129,22 +131,23 @@ def _embed_at(
     to the wanted values; the border samples are then put back, which changes the details
     near the border, and the next round corrects that.
 
-    Where the image is large (N >= 512), the rounds are followed in strips.  All of a round
-    is linear: the marked image is ``gim`` plus the reconstruction of the sum of the rounds'
-    detail changes, its border put back, and a round's change moves the details by itself
-    less the transform of its reconstruction's border samples, which only the strips of the
-    image along its border carry (:func:`_border_of_change`, :func:`_details_of_border`:
-    2 × 8 coefficient rows each way).  One reconstruction of the whole image per embedding
-    instead of three, and no decomposition of it (igea at N = 1024: 4 embeddings 1.78 →
-    0.57 s).  The same image to rounding (a test keeps the whole-image transforms of each
-    round); below N = 512 the strips are not smaller than the image, and the rounds transform
-    it whole, as they always did.
+    Where the image is large (N >= 512, :data:`_BORDER_ONLY_FROM`), the rounds follow the
+    border alone.  All of a round is linear: the marked image is ``gim`` plus the
+    reconstruction of the sum of the rounds' detail changes, its border put back, and a round's
+    change moves the details by itself less the transform of its reconstruction's border
+    samples (:func:`_border_of_change`, :func:`_details_of_border`: the 2-D transforms are
+    separable, so both are products with 1-D operators).  One reconstruction of the whole image
+    per embedding instead of three, and no decomposition of it (igea at N = 1024: 4
+    embeddings 1.78 -> 0.57 s with strips of the image along its border, 0.33 s by the 1-D
+    operators).  The same image to rounding (a test keeps the whole-image transforms of each
+    round); below N = 512 the rounds transform the image whole, as they always did (the same
+    bytes).
     """
     n = gim.shape[0]
     live = scale[layout.row, layout.col] > 0
     target = bits[layout.bit] / 2.0
-    strips = 4 * _strip(n) < n >> LEVEL
-    if strips:
+    border_only = n >= _BORDER_ONLY_FROM
+    if border_only:
         _, details = _split(cover)
         total = np.zeros_like(details)
     else:
@@ -154,7 +157,7 @@ def _embed_at(
         marked = gim.copy()
     want = None
     for round_ in range(_ROUNDS):
-        if not strips:
+        if not border_only:
             _, details = _split(cover if round_ == 0 else _wavedec(marked))
         vals = _values(details, frames, scale, layout)
         if want is None:
@@ -165,7 +168,7 @@ def _embed_at(
         local = np.zeros((3, *scale.shape, 3))
         local[layout.band, layout.row, layout.col, layout.comp] = change * _unit(scale, layout)
         world = np.einsum("ijab,kija->kijb", frames, local)
-        if strips:
+        if border_only:
             total += world
             if round_ + 1 < _ROUNDS:
                 details = details + world - _details_of_border(_border_of_change(world, n), n)
@@ -173,7 +176,7 @@ def _embed_at(
             delta = _reconstruct(world)
             delta[border] = 0.0
             marked += delta
-    if not strips:
+    if not border_only:
         return marked
     marked = gim + _reconstruct(total)
     for edge in (np.s_[0, :], np.s_[-1, :], np.s_[:, 0], np.s_[:, -1]):
@@ -193,61 +196,81 @@ def _reconstruct(world: NDArray[np.float64]) -> NDArray[np.float64]:
     )
 
 
-#: Coefficient rows on each side of the border that the strips hold: the sym4 level-3
-#: synthesis filter spans 50 samples (7 × 7 + 1), under 7 coefficient rows.
-_STRIP = 8
+#: The smallest N whose rounds follow the border alone (:func:`_embed_at`).
+_BORDER_ONLY_FROM = 512
 
 
-def _strip(n: int) -> int:
-    """Coefficient rows a strip holds on each side of the border (the whole image if small)."""
-    return min(_STRIP, (n >> LEVEL) // 2)
+@functools.lru_cache(maxsize=4)
+def _operators(n: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The 1-D level-3 operators of a length-``n`` signal: synthesis ``(2, m, n)`` (row ``a`` of
+    ``[0]`` is the signal of a unit approximation coefficient ``a``, of ``[1]`` of a unit
+    level-3 detail) and analysis ``(2, m, n)`` (column ``x``: the level-3 approximation and
+    detail coefficients of a unit sample at ``x``), from pywt's own 1-D transforms.
+
+    The 2-D level-3 transforms are separable: a band's coefficients are the 1-D analysis along
+    each axis (approximation or detail per axis), and its image the 1-D syntheses'
+    outer products.  Read-only (cached).
+    """
+    m = n >> LEVEL
+    eye = np.eye(m)
+    zeros = np.zeros((m, m))
+    finer = [np.zeros((m, m << k)) for k in range(1, LEVEL)]
+    synthesis = np.stack(
+        [
+            pywt.waverec([eye, zeros, *finer], WAVELET, mode="periodization", axis=-1),
+            pywt.waverec([zeros, eye, *finer], WAVELET, mode="periodization", axis=-1),
+        ]
+    )
+    coeffs = pywt.wavedec(np.eye(n), WAVELET, mode="periodization", level=LEVEL, axis=-1)
+    analysis = np.stack([coeffs[0].T, coeffs[1].T])
+    synthesis.flags.writeable = analysis.flags.writeable = False
+    return synthesis, analysis
+
+
+#: Each detail band's type along axes 0 and 1 (0: approximation, 1: detail), in pywt's band
+#: order (``cH``, ``cV``, ``cD``: keys ``da``, ``ad``, ``dd``).
+_BANDS = ((1, 0), (0, 1), (1, 1))
 
 
 def _border_of_change(world: NDArray[np.float64], n: int) -> NDArray[np.float64]:
     """The border samples of the reconstruction of level-3 details ``world`` (3, m, m, 3):
-    rows 0 and N-1 and columns 0 and N-1 as a (4, N, 3) array, from two strips.
+    rows 0 and N-1 and columns 0 and N-1 as a (4, N, 3) array.
 
-    Periodization is shift-equivariant by whole coefficients: rolled by ``h`` coefficient
-    rows the border lies in the middle of the first ``2h`` rows, whose reconstruction there
-    depends on them only.
+    By separability: a band's row ``x`` is the 1-D synthesis along axis 1 of its coefficients
+    weighted by the axis-0 synthesis at ``x`` (a column likewise, the axes swapped).
     """
-    h = _strip(n)
-    out = np.empty((4, n, 3))
-    for axis in (0, 1):
-        part = np.roll(world, h, axis=1 + axis).take(np.arange(2 * h), axis=1 + axis)
-        image = _reconstruct(part)
-        middle = h << LEVEL
-        out[2 * axis] = image.take(middle, axis=axis)  # row (column) 0
-        out[2 * axis + 1] = image.take(middle - 1, axis=axis)  # row (column) N - 1
+    synthesis, _ = _operators(n)
+    m = n >> LEVEL
+    out = np.zeros((4, n, 3))
+    for band, (p, q) in enumerate(_BANDS):
+        w = world[band]  # (a, b, channel)
+        ends_p, ends_q = synthesis[p][:, [0, -1]], synthesis[q][:, [0, -1]]  # (m, 2)
+        rows = (ends_p.T @ w.reshape(m, -1)).reshape(2, m, 3)  # weighted along axis 0
+        out[0:2] += (rows.transpose(0, 2, 1) @ synthesis[q]).transpose(0, 2, 1)
+        cols = w.transpose(0, 2, 1) @ ends_q  # (a, channel, 2): weighted along axis 1
+        out[2:4] += (cols.transpose(2, 1, 0) @ synthesis[p]).transpose(0, 2, 1)
     return out
 
 
 def _details_of_border(border: NDArray[np.float64], n: int) -> NDArray[np.float64]:
     """The level-3 details (3, m, m, 3) of the image that is ``border`` (:func:`_border_of_change`'s
-    layout) on its border samples and zero elsewhere, from two strips."""
-    h = _strip(n)
+    layout) on its border samples and zero elsewhere (the corners the rows').
+
+    By separability: a unit sample row at ``x`` holding ``r`` has in band (p, q) the outer
+    product of the axis-0 analysis of the unit sample at ``x`` and the axis-1 analysis of ``r``.
+    """
+    _, analysis = _operators(n)
     m = n >> LEVEL
-    out = np.zeros((3, m, m, 3))
-    middle = h << LEVEL
-    rows = (np.arange(2 * h) - h) % m
-    for axis in (0, 1):
-        shape = (2 * middle, n, 3) if axis == 0 else (n, 2 * middle, 3)
-        strip = np.zeros(shape)
-        first, last = border[2 * axis], border[2 * axis + 1]
-        if axis == 1:  # the corners are the rows' (counted once)
-            first, last = first.copy(), last.copy()
-            first[[0, -1]] = last[[0, -1]] = 0.0
-        index = [slice(None)] * 3
-        index[axis] = middle  # type: ignore[call-overload]
-        strip[tuple(index)] = first
-        index[axis] = middle - 1  # type: ignore[call-overload]
-        strip[tuple(index)] = last
-        coeffs = pywt.wavedec2(strip, WAVELET, mode="periodization", level=LEVEL, axes=(0, 1))
-        bands = np.stack(coeffs[1])
-        if axis == 0:
-            out[:, rows] += bands
-        else:
-            out[:, :, rows] += bands
+    first, last = border[2].copy(), border[3].copy()
+    first[[0, -1]] = last[[0, -1]] = 0.0  # the corners are the rows' (counted once)
+    columns = np.stack([first, last])
+    out = np.empty((3, m, m, 3))
+    for band, (p, q) in enumerate(_BANDS):
+        along = analysis[q] @ border[0:2]  # (2, m, 3): the rows' analysis along axis 1
+        across = analysis[p] @ columns  # (2, m, 3): the columns' along axis 0
+        ends_p, ends_q = analysis[p][:, [0, -1]], analysis[q][:, [0, -1]]  # (m, 2)
+        out[band] = (ends_p @ along.reshape(2, -1)).reshape(m, m, 3)
+        out[band] += (across.transpose(2, 1, 0) @ ends_q.T).transpose(1, 2, 0)
     return out
 
 
