@@ -351,3 +351,69 @@ def test_the_border_operators_are_the_whole_images_transforms(n):
     details = np.stack([np.stack([c[1][b] for c in coeffs], axis=-1) for b in range(3)])
     got = module._details_of_border(values, n)
     np.testing.assert_allclose(got, details, rtol=0, atol=1e-13 * np.abs(details).max())
+
+
+def _fake_calibration(ratios):
+    """An embedding whose distortion is the step times ``ratios[k]`` at its k-th call."""
+    calls = []
+
+    def embed_at(step):
+        calls.append(step)
+        return np.array([step * ratios[len(calls) - 1]])
+
+    return calls, embed_at, lambda marked: float(marked[0])
+
+
+def test_calibration_ends_at_the_first_embedding_within_tolerance():
+    from meshwm.profiles.robust.embed import _calibrated
+
+    target = 1.85e-4
+    # Proportional to within 0.5 % after the first correction: two embeddings.
+    calls, embed_at, distortion = _fake_calibration([0.002, 0.002 * 1.005, 1.0, 1.0])
+    step, marked = _calibrated(embed_at, distortion, target, tolerance=0.01)
+    assert len(calls) == 2 and step == calls[1]
+    assert abs(distortion(marked) - target) <= 0.01 * target
+
+
+def test_calibration_without_tolerance_makes_every_embedding_and_keeps_the_last():
+    from meshwm.profiles.robust.embed import CALIBRATION_EMBEDDINGS, _calibrated
+    from meshwm.profiles.robust.slots import _CALIBRATION_START
+
+    target = 1.85e-4
+    ratios = [0.002, 0.002 * 1.005, 0.002 * 1.11, 0.002 * 0.95]
+    calls, embed_at, distortion = _fake_calibration(ratios)
+    step, marked = _calibrated(embed_at, distortion, target, tolerance=0.0)
+    assert len(calls) == CALIBRATION_EMBEDDINGS and step == calls[-1]
+    assert marked[0] == calls[-1] * ratios[-1]
+    # Each step the last one corrected by target / measured (what it always did).
+    want = [_CALIBRATION_START]
+    for r in ratios[:-1]:
+        want.append(min(want[-1] * target / (want[-1] * r), 1.0))
+    assert calls == want
+
+
+def test_calibration_stops_at_a_zero_distortion():
+    from meshwm.profiles.robust.embed import _calibrated
+
+    calls, embed_at, distortion = _fake_calibration([0.0] * 4)
+    assert _calibrated(embed_at, distortion, 1.85e-4, tolerance=0.0)[0] == calls[0]
+    assert len(calls) == 1
+
+
+@pytest.mark.parametrize(("n", "embeddings"), [(256, 4), (512, 2)])
+def test_calibration_ends_early_from_n_512_only(n, embeddings, monkeypatch):
+    # From N = 512 the first correction lands within the tolerance (here after one
+    # correction); below, all four embeddings are made, as they always were.
+    from meshwm.profiles.robust import embed as module
+
+    made = []
+    real = module._embed_at
+    monkeypatch.setattr(module, "_embed_at", lambda *a: made.append(1) or real(*a))
+    gim = _surface(n, seed=5)
+    result = embed_gim_robust(gim, _bits(64, seed=6), key="k", options=RobustOptions())
+    assert len(made) == embeddings
+    measured = normal_distortion(gim, result.gim)
+    assert result.report["distortion"] == measured
+    if n >= module.CALIBRATION_EARLY_FROM:
+        target = RobustOptions().distortion
+        assert abs(measured - target) <= module.CALIBRATION_TOLERANCE * target
