@@ -158,7 +158,7 @@ def _cell_faces(p00: NDArray[np.int64], n: int, main: NDArray[np.bool_]) -> NDAr
     even = main[:, None]
     t1 = np.where(even, np.stack([p00, p01, p11], axis=1), np.stack([p00, p01, p10], axis=1))
     t2 = np.where(even, np.stack([p00, p11, p10], axis=1), np.stack([p01, p11, p10], axis=1))
-    return np.stack([t1, t2], axis=1).reshape(-1, 3).astype(np.int64)
+    return np.stack([t1, t2], axis=1).reshape(-1, 3).astype(np.int64, copy=False)
 
 
 @functools.lru_cache(maxsize=4)

@@ -84,4 +84,4 @@ def geometry_image_to_mesh(
         ov = np.asarray(other_vertices, dtype=np.float64)
         faces = np.vstack([faces, np.asarray(other_faces, dtype=np.int64) + len(vertices)])
         vertices = np.vstack([vertices, ov])
-    return vertices, faces.astype(np.int64)
+    return vertices, faces.astype(np.int64, copy=False)
