@@ -283,13 +283,13 @@ def _border_of_change(world: NDArray[np.float64], n: int) -> NDArray[np.float64]
     """
     synthesis, _ = _operators(n)
     m = n >> LEVEL
+    ends = [synthesis[t][:, [0, -1]] for t in (0, 1)]  # (m, 2): each signal at 0 and N-1
     out = np.zeros((4, n, 3))
     for band, (p, q) in enumerate(_BANDS):
         w = world[band]  # (a, b, channel)
-        ends_p, ends_q = synthesis[p][:, [0, -1]], synthesis[q][:, [0, -1]]  # (m, 2)
-        rows = (ends_p.T @ w.reshape(m, -1)).reshape(2, m, 3)  # weighted along axis 0
+        rows = (ends[p].T @ w.reshape(m, -1)).reshape(2, m, 3)  # weighted along axis 0
         out[0:2] += (rows.transpose(0, 2, 1) @ synthesis[q]).transpose(0, 2, 1)
-        cols = w.transpose(0, 2, 1) @ ends_q  # (a, channel, 2): weighted along axis 1
+        cols = w.transpose(0, 2, 1) @ ends[q]  # (a, channel, 2): weighted along axis 1
         out[2:4] += (cols.transpose(2, 1, 0) @ synthesis[p]).transpose(0, 2, 1)
     return out
 
@@ -305,14 +305,15 @@ def _details_of_border(border: NDArray[np.float64], n: int) -> NDArray[np.float6
     m = n >> LEVEL
     first, last = border[2].copy(), border[3].copy()
     first[[0, -1]] = last[[0, -1]] = 0.0  # the corners are the rows' (counted once)
-    columns = np.stack([first, last])
+    # Per type (approximation, detail): the rows' analysis along axis 1 and the columns'
+    # along axis 0 (2, m, 3 each), and each coefficient's weight of samples 0 and N-1 (m, 2).
+    along = [analysis[t] @ border[0:2] for t in (0, 1)]
+    across = [analysis[t] @ np.stack([first, last]) for t in (0, 1)]
+    ends = [analysis[t][:, [0, -1]] for t in (0, 1)]
     out = np.empty((3, m, m, 3))
     for band, (p, q) in enumerate(_BANDS):
-        along = analysis[q] @ border[0:2]  # (2, m, 3): the rows' analysis along axis 1
-        across = analysis[p] @ columns  # (2, m, 3): the columns' along axis 0
-        ends_p, ends_q = analysis[p][:, [0, -1]], analysis[q][:, [0, -1]]  # (m, 2)
-        out[band] = (ends_p @ along.reshape(2, -1)).reshape(m, m, 3)
-        out[band] += (across.transpose(2, 1, 0) @ ends_q.T).transpose(1, 2, 0)
+        out[band] = (ends[p] @ along[q].reshape(2, -1)).reshape(m, m, 3)
+        out[band] += (across[p].transpose(2, 1, 0) @ ends[q].T).transpose(1, 2, 0)
     return out
 
 
