@@ -243,15 +243,17 @@ _BORDER_ONLY_FROM = 512
 
 
 @functools.lru_cache(maxsize=4)
-def _operators(n: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """The 1-D level-3 operators of a length-``n`` signal: synthesis ``(2, m, n)`` (row ``a`` of
+def _operators(n: int) -> NDArray[np.float64]:
+    """The 1-D level-3 synthesis operators of a length-``n`` signal, ``(2, m, n)``: row ``a`` of
     ``[0]`` is the signal of a unit approximation coefficient ``a``, of ``[1]`` of a unit
-    level-3 detail) and analysis ``(2, m, n)`` (column ``x``: the level-3 approximation and
-    detail coefficients of a unit sample at ``x``), from pywt's own 1-D transforms.
+    level-3 detail (pywt's own 1-D reconstruction).
 
-    The 2-D level-3 transforms are separable: a band's coefficients are the 1-D analysis along
-    each axis (approximation or detail per axis), and its image the 1-D syntheses'
-    outer products.  Read-only (cached).
+    The 2-D level-3 transforms are separable: a band's image is the outer product of the 1-D
+    syntheses along each axis (approximation or detail per axis).  Periodized sym4 is an
+    orthonormal transform, so the same rows are the analysis: column ``x`` holds the level-3
+    coefficients of a unit sample at ``x`` (pywt's decomposition of the identity gave these
+    numbers to 1.1e-16, at 16 ms and an N × N identity at N = 1024, 0.16 s at 2048).
+    Read-only (cached).
     """
     m = n >> LEVEL
     eye = np.eye(m)
@@ -263,10 +265,8 @@ def _operators(n: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
             pywt.waverec([zeros, eye, *finer], WAVELET, mode="periodization", axis=-1),
         ]
     )
-    coeffs = pywt.wavedec(np.eye(n), WAVELET, mode="periodization", level=LEVEL, axis=-1)
-    analysis = np.stack([coeffs[0].T, coeffs[1].T])
-    synthesis.flags.writeable = analysis.flags.writeable = False
-    return synthesis, analysis
+    synthesis.flags.writeable = False
+    return synthesis
 
 
 #: Each detail band's type along axes 0 and 1 (0: approximation, 1: detail), in pywt's band
@@ -281,7 +281,7 @@ def _border_of_change(world: NDArray[np.float64], n: int) -> NDArray[np.float64]
     By separability: a band's row ``x`` is the 1-D synthesis along axis 1 of its coefficients
     weighted by the axis-0 synthesis at ``x`` (a column likewise, the axes swapped).
     """
-    synthesis, _ = _operators(n)
+    synthesis = _operators(n)
     m = n >> LEVEL
     ends = [synthesis[t][:, [0, -1]] for t in (0, 1)]  # (m, 2): each signal at 0 and N-1
     out = np.zeros((4, n, 3))
@@ -301,7 +301,7 @@ def _details_of_border(border: NDArray[np.float64], n: int) -> NDArray[np.float6
     By separability: a unit sample row at ``x`` holding ``r`` has in band (p, q) the outer
     product of the axis-0 analysis of the unit sample at ``x`` and the axis-1 analysis of ``r``.
     """
-    _, analysis = _operators(n)
+    analysis = _operators(n)  # orthonormal: the synthesis rows
     m = n >> LEVEL
     first, last = border[2].copy(), border[3].copy()
     first[[0, -1]] = last[[0, -1]] = 0.0  # the corners are the rows' (counted once)
