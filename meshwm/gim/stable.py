@@ -48,6 +48,9 @@ from __future__ import annotations
 
 import threading
 from collections import OrderedDict
+from collections.abc import Iterator
+from concurrent.futures import Future
+from contextlib import contextmanager
 from typing import NamedTuple
 
 import igl
@@ -577,7 +580,64 @@ def _smoothed_sources(
         if key in _MEMO:
             _MEMO.move_to_end(key)
             return _MEMO[key]
+        pending = list(_AHEAD)
+    for ahead in pending:  # made ahead in a second thread (smoothing_ahead): waited for
+        if ahead.key.result() == key:
+            try:
+                return ahead.found.result()
+            except Exception:  # made here instead (where it fails again, it raises)
+                break
     return _remember(key, smoothed_copy(vertices, faces, steps=steps, lam=lam), faces)
+
+
+class _Ahead(NamedTuple):
+    key: Future[tuple]
+    found: Future[tuple[NDArray[np.float64], _Sources, tuple[int, ...]]]
+
+
+#: The meshes whose smoothed copies are being made ahead (:func:`smoothing_ahead`).
+_AHEAD: list[_Ahead] = []
+
+
+@contextmanager
+def smoothing_ahead(
+    vertices: NDArray[np.float64], faces: NDArray[np.int64], *, steps: int = 50, lam: float = 0.5
+) -> Iterator[None]:
+    """Make the smoothed copy, sources and near-ties of a mesh in a second thread while the
+    ``with`` block runs: a :func:`cut_start` of the same arrays inside the block waits for them
+    instead of making them again (leaving the block waits for the thread).
+
+    The surface's cleaning (:func:`meshwm.mesh.clean.clean_mesh`) returns most meshes as they
+    were given, and the smoothing is made of the cleaned mesh: started on the input beside the
+    cleaning, it is ready, or nearly, when the cut asks for it.  Where the cleaning changed
+    the mesh, it was work on the second core only, and is not used.
+    """
+    ahead = _Ahead(Future(), Future())
+
+    def run() -> None:
+        try:
+            key = (*arrays_key(vertices, faces), int(steps), float(lam))
+        except BaseException as exc:
+            ahead.key.set_exception(exc)
+            ahead.found.set_exception(exc)
+            return
+        ahead.key.set_result(key)
+        try:
+            smooth = smoothed_copy(vertices, faces, steps=steps, lam=lam)
+            ahead.found.set_result(_remember(key, smooth, faces))
+        except BaseException as exc:
+            ahead.found.set_exception(exc)
+
+    thread = threading.Thread(target=run, daemon=True)
+    with _MEMO_LOCK:
+        _AHEAD.append(ahead)
+    thread.start()
+    try:
+        yield
+    finally:
+        thread.join()
+        with _MEMO_LOCK:
+            _AHEAD.remove(ahead)
 
 
 def _remember(

@@ -21,6 +21,7 @@ positions*: all input vertices at one position move together, so a seam never op
 
 from __future__ import annotations
 
+from contextlib import nullcontext
 from typing import NamedTuple
 
 import numpy as np
@@ -33,7 +34,7 @@ from meshwm._validate import DEFAULT_MAX_FACES, check_mesh
 from meshwm.errors import MeshError
 from meshwm.gim.holes import boundary_loops, fill_holes
 from meshwm.gim.sampling import bilinear_matrix, sampling_matrix
-from meshwm.gim.stable import cut_start, nudge_start, smoothed_near
+from meshwm.gim.stable import cut_start, nudge_start, smoothed_near, smoothing_ahead
 from meshwm.gim.tutte import StableMap, restart_map, stable_parameterize
 from meshwm.mesh.clean import clean_mesh
 from meshwm.mesh.edges import distinct_rows
@@ -116,6 +117,10 @@ def _distinct(vertices: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArr
     return vertices[first], inverse
 
 
+#: Up to this many vertices the cut's smoothing starts beside the cleaning.
+AHEAD_VERTICES = 6_000_000
+
+
 def surface_of(
     vertices: NDArray,
     faces: NDArray,
@@ -162,16 +167,17 @@ def surface_of(
     v, f = check_mesh(vertices, faces, max_faces=max_faces)
     if not merge:
         return _as_given(v, f, rank=rank, min_used=min_used)
-    positions, inverse = _distinct(v)
-    clean = clean_mesh(v, f, max_faces=max_faces)
-    freeze(clean.vertices, clean.faces)  # ours alone (or shared, read-only already)
-    # Each cleaned vertex is a copy of an input vertex (``clean.source``), so it is at that
-    # vertex's distinct position (found before by grouping both sets of rows again: 5M
-    # vertices, 2.9 s).
-    to_position = inverse[clean.source]
-    same = same_cleaning(like, inverse, to_position, to_position[clean.faces])
-    reuse = like.map if like is not None and same else None
-    smap = _map_filled(clean.vertices, clean.faces, rank=rank, like=reuse)
+    with smoothing_ahead(v, f) if like is None and len(v) <= AHEAD_VERTICES else nullcontext():
+        positions, inverse = _distinct(v)
+        clean = clean_mesh(v, f, max_faces=max_faces)
+        freeze(clean.vertices, clean.faces)  # ours alone (or shared, read-only already)
+        # Each cleaned vertex is a copy of an input vertex (``clean.source``), so it is at that
+        # vertex's distinct position (found before by grouping both sets of rows again: 5M
+        # vertices, 2.9 s).
+        to_position = inverse[clean.source]
+        same = same_cleaning(like, inverse, to_position, to_position[clean.faces])
+        reuse = like.map if like is not None and same else None
+        smap = _map_filled(clean.vertices, clean.faces, rank=rank, like=reuse)
     used = np.zeros(len(positions), dtype=bool)
     used[to_position] = True
     out = Surface(

@@ -395,3 +395,70 @@ def test_smoothing_near_a_change_declines_without_its_base_or_for_a_wide_change(
     assert not stable.smoothed_near(v, v + 1e-3, f)  # every row moved: the cone is the mesh
     assert not stable.smoothed_near(v, v.copy(), f)  # nothing moved
     assert (*stable.arrays_key(v + 1e-3, f), 50, 0.5) not in stable._MEMO
+
+
+def test_the_smoothing_made_ahead_is_waited_for_and_used_once(spot_mesh, monkeypatch):
+    # A cut start of the same arrays inside the block takes the second thread's smoothed copy
+    # (one smoothing in all, the same start); another mesh's start is made as before.
+    from meshwm.gim import stable
+
+    v, f = spot_mesh
+    stable._MEMO.clear()
+    want = cut_start(v, f)
+    stable._MEMO.clear()
+    calls = []
+    plain = stable.smoothed_copy
+
+    def counted(*args, **kwargs):  # type: ignore[no-untyped-def]
+        calls.append(len(args[0]))
+        return plain(*args, **kwargs)
+
+    monkeypatch.setattr(stable, "smoothed_copy", counted)
+    other = v * 2.0
+    with stable.smoothing_ahead(v, f):
+        assert cut_start(v.copy(), f.copy()) == want
+        cut_start(other, f)
+    assert calls == [len(v), len(v)]  # the mesh's once (ahead), the other's once
+    assert not stable._AHEAD
+    stable._MEMO.clear()
+    assert cut_start(other, f) == cut_start(other, f)
+
+
+def test_a_smoothing_ahead_that_fails_is_made_again_where_asked(spot_mesh, monkeypatch):
+    from meshwm.gim import stable
+
+    v, f = spot_mesh
+    stable._MEMO.clear()
+    want = cut_start(v, f)
+    stable._MEMO.clear()
+    plain = stable.smoothed_copy
+    state = {"first": True}
+
+    def fails_once(*args, **kwargs):  # type: ignore[no-untyped-def]
+        if state.pop("first", False):
+            raise MemoryError("the second thread ran out of memory")
+        return plain(*args, **kwargs)
+
+    monkeypatch.setattr(stable, "smoothed_copy", fails_once)
+    with stable.smoothing_ahead(v, f):
+        assert cut_start(v, f) == want
+    assert not stable._AHEAD
+
+
+def test_a_surface_is_the_same_with_its_smoothing_made_ahead(request, monkeypatch):
+    # surface_of starts the cut's smoothing beside the cleaning: the same surface as without
+    # (a clean closed mesh, whose cleaning returns it as given, and one with holes and its
+    # faces reordered, whose cleaning does not).
+    from meshwm.gim import stable, surface
+
+    for name in MESHES:
+        v, f = request.getfixturevalue(name)
+        f = f[np.random.default_rng(5).permutation(len(f))]
+        stable._MEMO.clear()
+        ahead = surface.surface_of(v, f)
+        stable._MEMO.clear()
+        monkeypatch.setattr(surface, "AHEAD_VERTICES", 0)
+        plain = surface.surface_of(v, f)
+        monkeypatch.undo()
+        np.testing.assert_array_equal(ahead.map.uv, plain.map.uv)
+        np.testing.assert_array_equal(ahead.map.cut.mesh.faces, plain.map.cut.mesh.faces)
