@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+import os
 import platform
 import subprocess
 import sys
 
+import numpy as np
 import pytest
 
 from meshwm import _malloc
@@ -136,3 +138,32 @@ def test_a_one_command_process_reuses_what_a_second_thread_freed():
     except subprocess.CalledProcessError:
         pytest.skip("no mallinfo2 (glibc < 2.33)")
     assert int(out.stdout) < 1 << 20  # the 128 MB came from the freed memory
+
+
+_HUGE = """
+import sys
+from numpy._core.multiarray import _get_madvise_hugepage
+if sys.argv[1] != "plain":
+    from meshwm._malloc import keep_freed_memory
+    assert keep_freed_memory(until_exit=sys.argv[1] == "until_exit")
+print(_get_madvise_hugepage())
+"""
+
+
+@glibc
+@pytest.mark.parametrize(
+    ("mode", "advised"), [("plain", "True"), ("worker", "True"), ("until_exit", "False")]
+)
+def test_a_one_command_process_does_not_advise_huge_pages_on_its_heap(mode, advised):
+    """numpy advises huge pages on arrays of 4 MB or more; on a kept heap that made the kernel
+    compact memory in the faulting thread (see ``_no_huge_pages``): a one-command process
+    turns the advice off; a worker, and a process that never asked, keep numpy's default."""
+    if not hasattr(np, "_core"):
+        pytest.skip("numpy < 2 (the setting is numpy.core's there)")
+    env = {k: v for k, v in os.environ.items() if k != "NUMPY_MADVISE_HUGEPAGE"}
+    out = subprocess.run(
+        [sys.executable, "-c", _HUGE, mode], capture_output=True, text=True, check=True, env=env
+    ).stdout.strip()
+    if mode == "plain" and out == "False":
+        pytest.skip("numpy does not advise huge pages on this kernel")
+    assert out == advised
