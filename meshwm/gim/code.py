@@ -154,11 +154,18 @@ def border_cell_faces(n: int) -> NDArray[np.int64]:
 def _cell_faces(p00: NDArray[np.int64], n: int, main: NDArray[np.bool_]) -> NDArray[np.int64]:
     """The two triangles of each cell with first corner ``p00`` (see :func:`grid_faces`),
     ``main`` where its diagonal is p00-p11."""
+    p00 = np.asarray(p00, dtype=np.int64)
     p01, p10, p11 = p00 + 1, p00 + n, p00 + n + 1
-    even = main[:, None]
-    t1 = np.where(even, np.stack([p00, p01, p11], axis=1), np.stack([p00, p01, p10], axis=1))
-    t2 = np.where(even, np.stack([p00, p11, p10], axis=1), np.stack([p01, p11, p10], axis=1))
-    return np.stack([t1, t2], axis=1).reshape(-1, 3).astype(np.int64, copy=False)
+    # Written corner by corner into the output (at N = 1024 two million triangles: 74 ms
+    # through stacked temporaries of every candidate triangle, cold).
+    out = np.empty((len(p00), 2, 3), dtype=np.int64)
+    out[:, 0, 0] = p00
+    out[:, 0, 1] = p01
+    out[:, 0, 2] = np.where(main, p11, p10)
+    out[:, 1, 0] = np.where(main, p00, p01)
+    out[:, 1, 1] = p11
+    out[:, 1, 2] = p10
+    return out.reshape(-1, 3)
 
 
 @functools.lru_cache(maxsize=4)

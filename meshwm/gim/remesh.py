@@ -38,6 +38,7 @@ from __future__ import annotations
 import functools
 import time
 from collections.abc import Callable
+from contextlib import nullcontext
 from typing import NamedTuple
 
 import numpy as np
@@ -45,7 +46,7 @@ import scipy.sparse as sp
 from numpy.typing import NDArray
 
 from meshwm._concurrent import beside
-from meshwm._validate import check_square_pow2
+from meshwm._validate import check_mesh, check_square_pow2
 from meshwm._vector import face_area
 from meshwm.errors import MeshError
 from meshwm.gim.boundary import (
@@ -67,7 +68,7 @@ from meshwm.gim.cut import (
     path_edges,
 )
 from meshwm.gim.parameterize import GridStep, flat_faces, signed_uv_area, stretch_parameterize
-from meshwm.gim.pose import canonical_mesh, canonical_pose
+from meshwm.gim.pose import CanonicalMesh, Pose, canonical_mesh, canonical_pose
 from meshwm.gim.sample import sample_geometry_image
 from meshwm.mesh.clean import clean_mesh, unique_edges
 
@@ -269,6 +270,7 @@ def _cut_rounds(
     max_stretch: float,
     max_rounds: int,
     accept_uniformity: float,
+    paths: list[NDArray[np.int64]] | None = None,
 ) -> tuple[_Round, _Round]:
     """Cut, map, and extend the cut where the map undersamples; the best and the last round.
 
@@ -277,9 +279,10 @@ def _cut_rounds(
     even one, when an extended cut does not fit the grid, after ``max_rounds`` extensions, or
     two rounds after the best one.
     """
-    paths = initial_cut(
-        surface.vertices, surface.faces, surface.graph, closed_genus0=surface.closed_genus0
-    )
+    if paths is None:
+        paths = initial_cut(
+            surface.vertices, surface.faces, surface.graph, closed_genus0=surface.closed_genus0
+        )
     number = 0
     best: _Round | None = None
     last: _Round | None = None
@@ -382,6 +385,42 @@ def _tie_fraction(values: NDArray[np.float64]) -> float:
     return float(tied.mean())
 
 
+#: Up to this many vertices the pose, surface and first cut are found beside the cleaning
+#: (:func:`_posed`; above, the two at once would add to the peak memory).
+AHEAD_VERTICES = 3_000_000
+
+
+class _Posed(NamedTuple):
+    pose: Pose
+    canon: CanonicalMesh | None
+    surface: _Surface
+    paths: list[NDArray[np.int64]] | None
+
+
+def _posed(vertices: NDArray[np.float64], faces: NDArray[np.int64], *, cut: bool) -> _Posed:
+    """The canonical pose of a cleaned mesh, its canonical copy where tied, its surface and,
+    where asked or where it is a closed genus-0 surface, its first cut (:func:`initial_cut`).
+
+    Remeshed in a canonical pose, near-ties cannot flip under a similarity's rounding.  A mesh
+    whose distances to its centre tie exactly (a rotation or a mirror maps it onto itself: its
+    remesh's choices are exact ties) is remeshed as its canonical copy
+    (:func:`meshwm.gim.pose.canonical_mesh`: snapped coarser, numbered by its coordinates),
+    where those ties are the same numbers in every pose; its samples are taken at the finer
+    coordinates.  Made ahead on a mesh as given (``cut=False``), the cut of a surface of
+    another topology is left to the cleaned mesh: ``igl.cut_to_disk`` wants a manifold.
+    """
+    pose = canonical_pose(vertices, faces)
+    fine = pose.forward(vertices)
+    canon = canonical_mesh(vertices, faces) if _tied(fine) else None
+    surface = _surface(fine, faces) if canon is None else _surface(canon.vertices, canon.faces)
+    paths = None
+    if cut or surface.closed_genus0:
+        paths = initial_cut(
+            surface.vertices, surface.faces, surface.graph, closed_genus0=surface.closed_genus0
+        )
+    return _Posed(pose, canon, surface, paths)
+
+
 def _sample_fine(
     best: _Round, fine: NDArray[np.float64], n: int
 ) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
@@ -462,19 +501,16 @@ def mesh_to_geometry_image(
     """
     n = check_square_pow2(size, name="size")
     t_start = time.perf_counter()
-    clean = clean_mesh(vertices, faces, max_faces=max_faces)
-    # Remesh in a canonical pose, so that near-ties cannot flip under a similarity's rounding.
-    # A mesh whose distances to its centre tie exactly (a rotation or a mirror maps it onto
-    # itself: its remesh's choices are exact ties) is remeshed as its canonical copy
-    # (:func:`meshwm.gim.pose.canonical_mesh`: snapped coarser, numbered by its coordinates),
-    # where those ties are the same numbers in every pose; its samples are taken at the finer
-    # coordinates.
-    pose = canonical_pose(clean.vertices, clean.faces)
-    fine = pose.forward(clean.vertices)
-    canon = canonical_mesh(clean.vertices, clean.faces) if _tied(fine) else None
-    surface = (
-        _surface(fine, clean.faces) if canon is None else _surface(canon.vertices, canon.faces)
-    )
+    v, f = check_mesh(vertices, faces, max_faces=max_faces)
+    # Most meshes come out of the cleaning as they went in: their pose, surface and first cut
+    # are found beside it, on the mesh as given, and used where the cleaning kept it.
+    with beside(_posed, v, f, cut=False) if len(v) <= AHEAD_VERTICES else nullcontext() as ahead:
+        clean = clean_mesh(v, f, max_faces=max_faces)
+        same = np.array_equal(clean.vertices, v) and np.array_equal(clean.faces, f)
+        posed = ahead.result() if ahead is not None and same else None
+    if posed is None:
+        posed = _posed(clean.vertices, clean.faces, cut=True)
+    pose, canon, surface, paths = posed
     best, last = _cut_rounds(
         surface,
         n,
@@ -482,6 +518,7 @@ def mesh_to_geometry_image(
         max_stretch=max_stretch,
         max_rounds=max_rounds,
         accept_uniformity=accept_uniformity,
+        paths=paths,
     )
     if canon is None:
         gim, weld = sample_geometry_image(

@@ -17,6 +17,53 @@ from meshwm.gim.code import grid_faces
 __all__ = ["geometry_image_to_mesh"]
 
 
+def _welded_grid_faces(n: int, weld: NDArray[np.int64]) -> NDArray[np.int64]:
+    """:func:`_weld_faces` of the whole grid (``grid_faces(n)``), the same array, from the
+    triangles around the welded samples and their roots only.
+
+    A triangle can collapse, or be a fin's, only if it has a welded sample or a root among
+    its corners; every other row is the grid's own.  So those triangles are found from the
+    samples' cells, the rows between them copied as they are.  (At N = 1024 a few thousand
+    triangles of two million: 0.12 -> 0.03 s, the row masks and the gathers over the whole
+    grid no longer made.)
+    """
+    faces = grid_faces(n)
+    root = np.asarray(weld, dtype=np.int64).reshape(-1)
+    moved = np.flatnonzero(root != np.arange(n * n))
+    if len(moved) == 0:
+        return faces.copy()
+    special = np.union1d(moved, root[moved])
+    i, j = np.divmod(special, n)
+    ci = i[:, None] + np.array([-1, -1, 0, 0])
+    cj = j[:, None] + np.array([-1, 0, -1, 0])
+    inside = (ci >= 0) & (ci <= n - 2) & (cj >= 0) & (cj <= n - 2)
+    cells = np.unique((ci * (n - 1) + cj)[inside])
+    rows = np.stack([2 * cells, 2 * cells + 1], axis=1).reshape(-1)  # ascending
+    welded = root[faces[rows]]
+    bad = (welded[:, 0] == welded[:, 1]) | (welded[:, 1] == welded[:, 2])
+    bad |= welded[:, 0] == welded[:, 2]
+    at_root = np.zeros(n * n, dtype=bool)
+    at_root[root[moved]] = True
+    near = np.flatnonzero(~bad & at_root[welded].any(axis=1))
+    key = np.sort(welded[near], axis=1)
+    order = np.lexsort(key.T[::-1])
+    ks = key[order]
+    same = np.all(ks[1:] == ks[:-1], axis=1)
+    twin = np.zeros(len(rows), dtype=bool)
+    twin[near[order[1:][same]]] = True
+    twin[near[order[:-1][same]]] = True
+    drop = rows[bad | twin]
+    out = np.empty((len(faces) - len(drop), 3), dtype=np.int64)
+    start = at = 0
+    for stop in [*drop.tolist(), len(faces)]:  # the runs of rows between dropped ones
+        out[at : at + stop - start] = faces[start:stop]
+        at += stop - start
+        start = stop + 1
+    kept = ~(bad | twin)
+    out[rows[kept] - np.searchsorted(drop, rows[kept])] = welded[kept]
+    return out
+
+
 def _weld_faces(faces: NDArray[np.int64], weld: NDArray[np.int64]) -> NDArray[np.int64]:
     """Grid triangles on the welded samples, collapsed triangles and fins left out."""
     root = np.asarray(weld, dtype=np.int64).reshape(-1)
@@ -72,9 +119,7 @@ def geometry_image_to_mesh(
         raise ValueError(f"gim must have shape (N, N, 3), got {gim.shape}")
     n = gim.shape[0]
     flat = gim.reshape(-1, 3)
-    faces = grid_faces(n)
-    if weld is not None:
-        faces = _weld_faces(faces, weld)
+    faces = grid_faces(n) if weld is None else _welded_grid_faces(n, weld)
     used = np.zeros(n * n, dtype=bool)
     used[faces.ravel()] = True
     remap = np.cumsum(used) - 1

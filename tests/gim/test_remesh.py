@@ -144,3 +144,22 @@ def test_an_evenly_sampled_round_ends_the_rounds(kitten_mesh):
     rounds (it took two more, and kept the first, before)."""
     g = mesh_to_geometry_image(*kitten_mesh, size=128)
     assert g.report["cut_rounds"] == g.report["cut_rounds_tried"] == 0
+
+
+@pytest.mark.parametrize("fixture", ["spot_mesh", "kitten_mesh", "plane_mesh"])
+def test_the_pose_found_beside_the_cleaning_gives_the_same_image(fixture, request, monkeypatch):
+    # The pose, surface and first cut are found on the mesh as given beside its cleaning, and
+    # used where the cleaning kept it: the same image and weld as without; and a mesh the
+    # cleaning changes (a loose triangle added, its faces reversed) is posed after it.
+    from meshwm.gim import remesh
+
+    v, f = request.getfixturevalue(fixture)
+    extra_v = np.vstack([v, v[:3] + 10.0])
+    extra_f = np.vstack([f, [len(v), len(v) + 1, len(v) + 2]])[::-1].copy()
+    for vertices, faces in ((v, f), (extra_v, extra_f)):
+        ahead = remesh.mesh_to_geometry_image(vertices, faces, size=64)
+        monkeypatch.setattr(remesh, "AHEAD_VERTICES", -1)
+        plain = remesh.mesh_to_geometry_image(vertices, faces, size=64)
+        monkeypatch.undo()
+        np.testing.assert_array_equal(ahead.gim, plain.gim)
+        np.testing.assert_array_equal(ahead.weld, plain.weld)

@@ -97,3 +97,48 @@ def test_fins_found_among_the_seams_triangles_are_all_of_them(fixture, request):
     _, inverse, counts = np.unique(key, axis=0, return_inverse=True, return_counts=True)
     expected = faces[counts[inverse] == 1]
     np.testing.assert_array_equal(_weld_faces(grid_faces(64), g.weld), expected)
+
+
+def _random_weld(n: int, rng: np.random.Generator, count: int) -> np.ndarray:
+    """An idempotent weld map: ``count`` samples welded to other samples (roots), many of them
+    to a neighbour (their triangles collapse) and some in mirrored runs along the border, as a
+    cut's two sides are (their end triangles become fins)."""
+    root = np.arange(n * n)
+    samples = rng.choice(n * n, size=count, replace=False)
+    for k in samples:
+        i, j = divmod(int(k), n)
+        di, dj = rng.integers(-1, 2, size=2)
+        target = (
+            int(np.clip(i + di, 0, n - 1)) * n + int(np.clip(j + dj, 0, n - 1))
+            if rng.random() < 0.7
+            else int(rng.integers(n * n))
+        )
+        if root[target] == target and target != k:
+            root[k] = target
+    side = n // 2
+    for t in range(1, side):  # the top border's right half folded onto its left half
+        a, b = side - t, side + t
+        if root[a] == a and root[b] == b:
+            root[b] = a
+    return root[root].reshape(n, n)  # idempotent
+
+
+@pytest.mark.parametrize("n", [4, 16, 64, 256])
+def test_welding_the_grid_from_its_seams_is_welding_every_triangle(n, spot_mesh):
+    # geometry_image_to_mesh welds the grid from the triangles around its welded samples:
+    # the same faces, row for row, as the weld of every triangle (random welds with collapsed
+    # triangles and fins, and a real geometry image's seams).
+    from meshwm.gim.code import grid_faces
+    from meshwm.gim.to_mesh import _weld_faces, _welded_grid_faces
+
+    rng = np.random.default_rng(n)
+    welds = [_random_weld(n, rng, count) for count in (0, 1, n, n * n // 4)]
+    if n >= 64:
+        v, f = spot_mesh
+        welds.append(mesh_to_geometry_image(v, f, size=n).weld)
+    for weld in welds:
+        want = _weld_faces(grid_faces(n), weld)
+        got = _welded_grid_faces(n, weld)
+        assert got.dtype == np.int64
+        np.testing.assert_array_equal(got, want)
+    assert any(len(_weld_faces(grid_faces(n), w)) < len(grid_faces(n)) for w in welds)
