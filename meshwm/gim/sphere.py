@@ -338,8 +338,10 @@ def sphere_sampling(
     # balanced one (5M directions: 1.7 s against 4.4 s); it serves one query of N² pixels,
     # so leaves of 32 points (half the nodes to build; 537k directions: 0.105 → 0.069 s,
     # the query 0.03 s either way).
+    # Each pixel's query is its own: split between two threads, the same neighbours (igea at
+    # 134k vertices, N = 128: 28 -> 19 ms).
     tree = cKDTree(unit[rows], leafsize=32, balanced_tree=False, compact_nodes=False)
-    dist, nearest = tree.query(grid, k=k)
+    dist, nearest = tree.query(grid, k=k, workers=2)
     dist = dist.reshape(len(grid), k)
     nearest = rows[nearest.reshape(len(grid), k)]
     pixel = np.sqrt(4.0 * np.pi) / n
