@@ -582,7 +582,7 @@ def _smoothed_sources(
             return _MEMO[key]
         pending = list(_AHEAD)
     for ahead in pending:  # made ahead in a second thread (smoothing_ahead): waited for
-        if ahead.key.result() == key:
+        if ahead.key.exception() is None and ahead.key.result() == key:
             try:
                 return ahead.found.result()
             except Exception:  # made here instead (where it fails again, it raises)

@@ -462,3 +462,25 @@ def test_a_surface_is_the_same_with_its_smoothing_made_ahead(request, monkeypatc
         monkeypatch.undo()
         np.testing.assert_array_equal(ahead.map.uv, plain.map.uv)
         np.testing.assert_array_equal(ahead.map.cut.mesh.faces, plain.map.cut.mesh.faces)
+
+
+def test_a_smoothing_ahead_whose_digest_fails_is_passed_over(spot_mesh, monkeypatch):
+    import threading
+
+    from meshwm.gim import stable
+
+    v, f = spot_mesh
+    stable._MEMO.clear()
+    want = cut_start(v, f)
+    stable._MEMO.clear()
+    plain = stable.arrays_key
+
+    def fails_beside(*arrays):  # type: ignore[no-untyped-def]
+        if threading.current_thread() is not threading.main_thread():
+            raise MemoryError("no memory for the digest")
+        return plain(*arrays)
+
+    monkeypatch.setattr(stable, "arrays_key", fails_beside)
+    with stable.smoothing_ahead(v, f):
+        assert cut_start(v, f) == want
+    assert not stable._AHEAD
