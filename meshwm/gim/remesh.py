@@ -38,7 +38,6 @@ from __future__ import annotations
 import functools
 import time
 from collections.abc import Callable
-from contextlib import nullcontext
 from typing import NamedTuple
 
 import numpy as np
@@ -386,7 +385,7 @@ def _tie_fraction(values: NDArray[np.float64]) -> float:
 
 
 #: Up to this many vertices the pose, surface and first cut are found beside the cleaning
-#: (:func:`_posed`; above, the two at once would add to the peak memory).
+#: (:func:`_posed`).
 AHEAD_VERTICES = 3_000_000
 
 
@@ -501,13 +500,20 @@ def mesh_to_geometry_image(
     """
     n = check_square_pow2(size, name="size")
     t_start = time.perf_counter()
-    v, f = check_mesh(vertices, faces, max_faces=max_faces)
-    # Most meshes come out of the cleaning as they went in: their pose, surface and first cut
-    # are found beside it, on the mesh as given, and used where the cleaning kept it.
-    with beside(_posed, v, f, cut=False) if len(v) <= AHEAD_VERTICES else nullcontext() as ahead:
-        clean = clean_mesh(v, f, max_faces=max_faces)
-        same = np.array_equal(clean.vertices, v) and np.array_equal(clean.faces, f)
-        posed = ahead.result() if ahead is not None and same else None
+    posed = None
+    if len(vertices) <= AHEAD_VERTICES:
+        # Most meshes come out of the cleaning as they went in: their pose, surface and first
+        # cut are found beside it, on the mesh as given, and used where the cleaning kept it.
+        # (Not above: the checked copy of the input held through the cleaning, and the work
+        # beside it, would add to the peak memory.)
+        v, f = check_mesh(vertices, faces, max_faces=max_faces)
+        with beside(_posed, v, f, cut=False) as ahead:
+            clean = clean_mesh(v, f, max_faces=max_faces)
+            if np.array_equal(clean.vertices, v) and np.array_equal(clean.faces, f):
+                posed = ahead.result()
+        del v, f
+    else:
+        clean = clean_mesh(vertices, faces, max_faces=max_faces)
     if posed is None:
         posed = _posed(clean.vertices, clean.faces, cut=True)
     pose, canon, surface, paths = posed
