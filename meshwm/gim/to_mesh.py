@@ -44,14 +44,7 @@ def _welded_grid_faces(n: int, weld: NDArray[np.int64]) -> NDArray[np.int64]:
     bad |= welded[:, 0] == welded[:, 2]
     at_root = np.zeros(n * n, dtype=bool)
     at_root[root[moved]] = True
-    near = np.flatnonzero(~bad & at_root[welded].any(axis=1))
-    key = np.sort(welded[near], axis=1)
-    order = np.lexsort(key.T[::-1])
-    ks = key[order]
-    same = np.all(ks[1:] == ks[:-1], axis=1)
-    twin = np.zeros(len(rows), dtype=bool)
-    twin[near[order[1:][same]]] = True
-    twin[near[order[:-1][same]]] = True
+    twin = _twins(welded, np.flatnonzero(~bad & at_root[welded].any(axis=1)))
     drop = rows[bad | twin]
     out = np.empty((len(faces) - len(drop), 3), dtype=np.int64)
     start = at = 0
@@ -76,7 +69,12 @@ def _weld_faces(faces: NDArray[np.int64], weld: NDArray[np.int64]) -> NDArray[np
     # compared (a million triangles at N = 1024, a few thousand along the seams).
     at_root = np.zeros(len(root), dtype=bool)
     at_root[root[root != np.arange(len(root))]] = True
-    near = np.flatnonzero(at_root[faces].any(axis=1))
+    return faces[~_twins(faces, np.flatnonzero(at_root[faces].any(axis=1)))]
+
+
+def _twins(faces: NDArray[np.int64], near: NDArray[np.int64]) -> NDArray[np.bool_]:
+    """Per row of ``faces``: whether it is one of the rows ``near`` whose three vertices
+    another of them has too (a fin's two triangles)."""
     key = np.sort(faces[near], axis=1)
     order = np.lexsort(key.T[::-1])
     ks = key[order]
@@ -84,7 +82,7 @@ def _weld_faces(faces: NDArray[np.int64], weld: NDArray[np.int64]) -> NDArray[np
     twin = np.zeros(len(faces), dtype=bool)
     twin[near[order[1:][same]]] = True
     twin[near[order[:-1][same]]] = True
-    return faces[~twin]
+    return twin
 
 
 def geometry_image_to_mesh(

@@ -397,15 +397,23 @@ def test_smoothing_near_a_change_declines_without_its_base_or_for_a_wide_change(
     assert (*stable.arrays_key(v + 1e-3, f), 50, 0.5) not in stable._MEMO
 
 
+def _start_of(v: np.ndarray, f: np.ndarray) -> tuple:
+    """The cut start of a mesh made afresh, the memo left empty."""
+    from meshwm.gim import stable
+
+    stable._MEMO.clear()
+    want = cut_start(v, f)
+    stable._MEMO.clear()
+    return want
+
+
 def test_the_smoothing_made_ahead_is_waited_for_and_used_once(spot_mesh, monkeypatch):
     # A cut start of the same arrays inside the block takes the second thread's smoothed copy
     # (one smoothing in all, the same start); another mesh's start is made as before.
     from meshwm.gim import stable
 
     v, f = spot_mesh
-    stable._MEMO.clear()
-    want = cut_start(v, f)
-    stable._MEMO.clear()
+    want = _start_of(v, f)
     calls = []
     plain = stable.smoothed_copy
 
@@ -428,9 +436,7 @@ def test_a_smoothing_ahead_that_fails_is_made_again_where_asked(spot_mesh, monke
     from meshwm.gim import stable
 
     v, f = spot_mesh
-    stable._MEMO.clear()
-    want = cut_start(v, f)
-    stable._MEMO.clear()
+    want = _start_of(v, f)
     plain = stable.smoothed_copy
     state = {"first": True}
 
@@ -470,9 +476,7 @@ def test_a_smoothing_ahead_whose_digest_fails_is_passed_over(spot_mesh, monkeypa
     from meshwm.gim import stable
 
     v, f = spot_mesh
-    stable._MEMO.clear()
-    want = cut_start(v, f)
-    stable._MEMO.clear()
+    want = _start_of(v, f)
     plain = stable.arrays_key
 
     def fails_beside(*arrays):  # type: ignore[no-untyped-def]
