@@ -628,14 +628,12 @@ def smoothing_ahead(
         except BaseException as exc:
             ahead.found.set_exception(exc)
 
-    thread = threading.Thread(target=run, daemon=True)
     with _MEMO_LOCK:
         _AHEAD.append(ahead)
-    thread.start()
     try:
-        yield
+        with beside(run):
+            yield
     finally:
-        thread.join()
         with _MEMO_LOCK:
             _AHEAD.remove(ahead)
 
