@@ -146,3 +146,34 @@ def test_the_hierarchy_is_pyamgs_built_level_by_level_in_sorted_csr(spot_mesh):
         assert np.linalg.norm(matrix @ x - b) <= 1e-9 * np.linalg.norm(b)
         counts.append(len(residuals))
     assert counts[0] <= counts[1] + 1
+
+
+def test_columns_solved_two_at_a_time_give_each_columns_own_solution(spot_mesh, monkeypatch):
+    # Three columns through a fresh hierarchy (its coarsest solver not yet made): two threads
+    # share it, and each column is the one solved alone, bit for bit.
+    import threading
+
+    import scipy.sparse as sp
+
+    from meshwm.gim.transfer import uniform_laplacian
+
+    v, f = spot_mesh
+    laplacian = uniform_laplacian(f, len(v))
+    matrix = sp.csr_matrix(laplacian.T @ laplacian + 1e-3 * sp.identity(len(v)))
+    rhs = np.random.default_rng(11).normal(size=(len(v), 3))
+    alone = [
+        solve._amg_solve(solve._hierarchy(matrix), rhs[:, [c]], guess=None, tol=1e-10, maxiter=400)
+        for c in range(3)
+    ]
+    threads = set()
+    pcg = solve._pcg
+
+    def recording(*args, **kwargs):
+        threads.add(threading.get_ident())
+        return pcg(*args, **kwargs)
+
+    monkeypatch.setattr(solve, "_pcg", recording)
+    together = solve._amg_solve(solve._hierarchy(matrix), rhs, guess=None, tol=1e-10, maxiter=400)
+    assert len(threads) == 2
+    for c in range(3):
+        np.testing.assert_array_equal(together[:, [c]], alone[c])
