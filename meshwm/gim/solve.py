@@ -70,6 +70,13 @@ def _hierarchy(matrix: sp.csr_matrix) -> Any:
     vertices 6.8 -> 5.5 s a column).  So each level is built by PyAMG from the last one's
     matrix as sorted CSR (PyAMG's own steps and options, level by level: its candidates
     improved on the finest level only, as its default), and its operators kept as CSR.
+
+    No strength-of-connection matrix: PyAMG's default (symmetric, theta 0) keeps every entry
+    of the level's matrix, and the aggregation reads only its pattern (the prolongator's
+    smoothing, unfiltered, does not read it at all), so the level's own matrix gives the same
+    hierarchy, operator for operator, without a scaled copy of it (2.1M unknowns: 2.11 ->
+    1.45 s a hierarchy; igea at 5M vertices, N = 256: 86.8 -> 80.5 s, the peak 7.35 -> 6.97
+    GiB, the same output).
     """
     import pyamg
     from pyamg.multilevel import MultilevelSolver
@@ -78,6 +85,7 @@ def _hierarchy(matrix: sp.csr_matrix) -> Any:
     symmetric = ("gauss_seidel", {"sweep": "symmetric"})
     options: dict[str, Any] = {
         "symmetry": "symmetric",
+        "strength": None,
         "smooth": ("jacobi", {"omega": 4.0 / 3.0, "weighting": "local"}),
         "max_levels": 2,
         "max_coarse": _MAX_COARSE,

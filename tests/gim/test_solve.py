@@ -177,3 +177,37 @@ def test_columns_solved_two_at_a_time_give_each_columns_own_solution(spot_mesh, 
     assert len(threads) == 2
     for c in range(3):
         np.testing.assert_array_equal(together[:, [c]], alone[c])
+
+
+def test_the_hierarchy_without_a_strength_matrix_is_the_one_with_pyamgs_symmetric_strength(
+    spot_mesh,
+):
+    # At theta = 0 PyAMG's symmetric strength keeps every entry of A, and the aggregation
+    # reads only its pattern: the hierarchy built on A itself (no strength matrix, a copy of A
+    # at the grid mode's peak) is PyAMG's default one, operator for operator.
+    import igl
+    import pyamg
+    import scipy.sparse as sp
+
+    v, f = spot_mesh
+    matrix = sp.csr_array(-igl.cotmatrix(v, f))[4:, 4:] + sp.identity(len(v) - 4) * 1e-9
+    matrix = sp.csr_array(matrix)
+    matrix.sort_indices()
+    ours = solve._hierarchy(matrix)
+    theirs = pyamg.smoothed_aggregation_solver(
+        matrix,
+        symmetry="symmetric",
+        smooth=("jacobi", {"omega": 4.0 / 3.0, "weighting": "local"}),
+        max_levels=2,
+        max_coarse=10,
+    )
+    for name in ("P", "R"):
+        a = sp.csr_array(getattr(ours.levels[0], name))
+        b = sp.csr_array(getattr(theirs.levels[0], name))
+        b.sort_indices()
+        for x, y in zip((a.data, a.indices, a.indptr), (b.data, b.indices, b.indptr), strict=True):
+            np.testing.assert_array_equal(x, y)
+    coarse = sp.csr_array(theirs.levels[1].A)
+    coarse.sort_indices()
+    np.testing.assert_array_equal(ours.levels[1].A.toarray(), coarse.toarray())
+    np.testing.assert_array_equal(ours.levels[1].B, theirs.levels[1].B)
