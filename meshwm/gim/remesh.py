@@ -385,10 +385,8 @@ def _tie_fraction(values: NDArray[np.float64]) -> float:
 
 
 #: Up to this many vertices the pose, surface and first cut are found beside the cleaning
-#: (:func:`_posed`): the largest mesh issue 16 measures (5M) peaks at 7.21 / 7.22 GiB at N =
-#: 256 / 1024 with it (6.96 GiB without, at N = 256), within its 8 GB; above, the checked copy
-#: of the input held through the cleaning and the work beside it add to a peak not measured.
-AHEAD_VERTICES = 6_000_000
+#: (:func:`_posed`).
+AHEAD_VERTICES = 3_000_000
 
 
 class _Posed(NamedTuple):
@@ -507,7 +505,7 @@ def mesh_to_geometry_image(
         # Most meshes come out of the cleaning as they went in: their pose, surface and first
         # cut are found beside it, on the mesh as given, and used where the cleaning kept it.
         # (Not above: the checked copy of the input held through the cleaning, and the work
-        # beside it, add to the peak memory.)
+        # beside it, would add to the peak memory.)
         v, f = check_mesh(vertices, faces, max_faces=max_faces)
         with beside(_posed, v, f, cut=False) as ahead:
             clean = clean_mesh(v, f, max_faces=max_faces)
