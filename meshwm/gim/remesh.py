@@ -385,7 +385,8 @@ def _tie_fraction(values: NDArray[np.float64]) -> float:
 
 
 #: Up to this many vertices the pose, surface and first cut are found beside the cleaning
-#: (:func:`_posed`).
+#: (:func:`_posed`).  Not at 5M: there the peak then depended on how the two threads'
+#: allocations interleaved, 7.21-7.77 GiB from run to run (6.96-7.05 without; cc4e54b).
 AHEAD_VERTICES = 3_000_000
 
 

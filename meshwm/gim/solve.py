@@ -280,8 +280,8 @@ def _amg_solve(
     (the 2.1M Laplacian: 20 products 1.12 s one after the other, 0.67 s in two threads; 10
     Gauss-Seidel sweeps 0.58 s one after the other, 0.60 s in two threads); igea at 5M
     vertices, N = 256: 96.1 -> 78.1 s, the kept mode 93.2 -> 86.1 s, the same output files.
-    The hierarchy is shared read-only; its coarsest solver
-    (a pseudo-inverse PyAMG makes at its first call) is made before the threads start.
+    The hierarchy is shared read-only; its coarsest solver (a pseudo-inverse PyAMG makes at
+    its first call) is made before the threads start.
     """
     out = np.empty_like(rhs)
 
