@@ -53,15 +53,25 @@ _MAX_COARSE = 10
 def _hierarchy(matrix: sp.csr_matrix) -> Any:
     """PyAMG's smoothed-aggregation hierarchy of ``matrix``, built one level at a time.
 
-    Smoothed aggregation with symmetric Gauss-Seidel (a symmetric preconditioner, as CG
-    wants).  Ruge-Stüben, used before, needed ever more iterations on the cotangent Laplacian
-    as the mesh grew (igea Loop-subdivided, 4 vertices fixed: 47 iterations at 0.5M, 59 at
-    2M; 15.9 s and 133 s, slope 1.52); this, as configured here: 33 iterations, 9.0 s at 0.5M
-    and 217 s at 5M (docs/bench/scale.md).  The Tutte system at 0.5M: 21-22 iterations and
-    12.4 s against 28 and 8.7 s.  The prolongator's Jacobi smoothing is weighted by
-    Gershgorin's local bound, not by PyAMG's default spectral-radius estimate (which starts
-    from a random vector): the hierarchy, and so every solve, is a deterministic function of
-    the matrix.
+    Smoothed aggregation with Gauss-Seidel: on the finest level one forward sweep before the
+    coarse correction and one backward sweep after it, on the coarser levels a symmetric sweep
+    (forward then backward) each time; either way the V-cycle is a symmetric preconditioner, as
+    CG wants.  The finest level is where a V-cycle spends its time (igea at 5M vertices: 5.0M
+    unknowns, the next level 313k), and PyAMG's Gauss-Seidel holds the GIL, so the two columns
+    :func:`_amg_solve` runs at once wait for each other there.  The grid mode's two stretch
+    solves at 5M vertices, in two threads: symmetric sweeps on every level 17.2-18.3 and
+    14.7-15.7 s (25 and 22 iterations a column); one sweep each way on the finest level
+    11.3-12.0 and 9.4-9.9 s (26 and 22 iterations); one each way on every level 13.7 and 13.0 s
+    (31-32 and 28); two each way on every level 15.3 and 15.4 s (24 and 21).  The embedding
+    73-76 -> 63.5 s, the kept mode's 94.2 -> 82.6 s.  Ruge-Stüben, used before, needed ever more
+    iterations on the cotangent Laplacian as the mesh grew (igea Loop-subdivided, 4 vertices
+    fixed: 47 iterations at 0.5M, 59 at 2M; 15.9 s and 133 s, slope 1.52); smoothed
+    aggregation (then with symmetric sweeps throughout): 33 iterations, 9.0 s at 0.5M and 217 s
+    at 5M (docs/bench/scale.md).  The Tutte system
+    at 0.5M: 21-22 iterations and 12.4 s against 28 and 8.7 s.  The prolongator's Jacobi
+    smoothing is weighted by Gershgorin's local bound, not by PyAMG's default spectral-radius
+    estimate (which starts from a random vector): the hierarchy, and so every solve, is a
+    deterministic function of the matrix.
 
     One unknown per node, so PyAMG makes the coarse matrices and the transfer operators BSR
     of 1×1 blocks, whose products leave their indices unsorted; the next level's smoothing
@@ -82,7 +92,6 @@ def _hierarchy(matrix: sp.csr_matrix) -> Any:
     from pyamg.multilevel import MultilevelSolver
     from pyamg.relaxation.smoothing import change_smoothers
 
-    symmetric = ("gauss_seidel", {"sweep": "symmetric"})
     options: dict[str, Any] = {
         "symmetry": "symmetric",
         "strength": None,
@@ -116,7 +125,12 @@ def _hierarchy(matrix: sp.csr_matrix) -> Any:
             levels.append(last)
             break
     hierarchy = MultilevelSolver(levels)
-    change_smoothers(hierarchy, symmetric, symmetric)
+    coarse = [("gauss_seidel", {"sweep": "symmetric"})] * (len(levels) - 2)
+    change_smoothers(
+        hierarchy,
+        [("gauss_seidel", {"sweep": "forward"}), *coarse],
+        [("gauss_seidel", {"sweep": "backward"}), *coarse],
+    )
     return hierarchy
 
 
