@@ -280,7 +280,11 @@ def _cut_rounds(
     """
     if paths is None:
         paths = initial_cut(
-            surface.vertices, surface.faces, surface.graph, closed_genus0=surface.closed_genus0
+            surface.vertices,
+            surface.faces,
+            surface.graph,
+            closed_genus0=surface.closed_genus0,
+            radial=surface.radial,
         )
     number = 0
     best: _Round | None = None
@@ -416,7 +420,11 @@ def _posed(vertices: NDArray[np.float64], faces: NDArray[np.int64], *, cut: bool
     paths = None
     if cut or surface.closed_genus0:
         paths = initial_cut(
-            surface.vertices, surface.faces, surface.graph, closed_genus0=surface.closed_genus0
+            surface.vertices,
+            surface.faces,
+            surface.graph,
+            closed_genus0=surface.closed_genus0,
+            radial=surface.radial,
         )
     return _Posed(pose, canon, surface, paths)
 

@@ -40,6 +40,18 @@ def test_closed_genus0_mesh_is_cut_along_one_path_into_a_disk(ellipsoid):
     assert np.array_equal(cut.vertices, v[cut.origin])
 
 
+def test_the_first_cut_is_the_same_with_the_callers_radial_distances(ellipsoid, spot_mesh):
+    # The remesh hands its surface's distances to the centroid to the first cut, which would
+    # compute the same numbers: the same path; other distances pick another one.
+    for v, f in (ellipsoid, spot_mesh):
+        graph, radial = _graph_and_radial(v, f)
+        own = initial_cut(v, f, graph, closed_genus0=True)
+        given = initial_cut(v, f, graph, closed_genus0=True, radial=radial)
+        np.testing.assert_array_equal(given[0], own[0])
+        other = initial_cut(v, f, graph, closed_genus0=True, radial=-radial)
+        assert not np.array_equal(other[0], own[0])
+
+
 def test_a_torus_is_cut_into_a_disk_by_cut_to_disk(kitten_mesh):
     clean = clean_mesh(*kitten_mesh)
     v, f = clean.vertices, clean.faces
