@@ -389,9 +389,12 @@ def _tie_fraction(values: NDArray[np.float64]) -> float:
 
 
 #: Up to this many vertices the pose, surface and first cut are found beside the cleaning
-#: (:func:`_posed`).  Not at 5M: there the peak then depended on how the two threads'
-#: allocations interleaved, 7.21-7.77 GiB from run to run (6.96-7.05 without; cc4e54b).
-AHEAD_VERTICES = 3_000_000
+#: (:func:`_posed`).  Not at 1M: the two at once put the peak of igea decimated and
+#: subdivided to 1M vertices at N = 1024 at 1.85-1.90 GiB (1.99-2.04 GB, over issue 16's
+#: 2 GB), one after the other 1.57 GiB, for 0.3-0.9 s of its 11-12 s.  (Nor at 5M: there
+#: the peak depended on how the two threads' allocations interleaved, 7.21-7.77 GiB from
+#: run to run; cc4e54b.)
+AHEAD_VERTICES = 750_000
 
 
 class _Posed(NamedTuple):
