@@ -65,13 +65,12 @@ def _hierarchy(matrix: sp.csr_matrix) -> Any:
     (31-32 and 28); two each way on every level 15.3 and 15.4 s (24 and 21).  The embedding
     73-76 -> 63.5 s, the kept mode's 94.2 -> 82.6 s.  Ruge-Stüben, used before, needed ever more
     iterations on the cotangent Laplacian as the mesh grew (igea Loop-subdivided, 4 vertices
-    fixed: 47 iterations at 0.5M, 59 at 2M; 15.9 s and 133 s, slope 1.52); smoothed
-    aggregation (then with symmetric sweeps throughout): 33 iterations, 9.0 s at 0.5M and 217 s
-    at 5M (docs/bench/scale.md).  The Tutte system
-    at 0.5M: 21-22 iterations and 12.4 s against 28 and 8.7 s.  The prolongator's Jacobi
-    smoothing is weighted by Gershgorin's local bound, not by PyAMG's default spectral-radius
-    estimate (which starts from a random vector): the hierarchy, and so every solve, is a
-    deterministic function of the matrix.
+    fixed: 47 iterations at 0.5M, 59 at 2M; 15.9 s and 133 s, slope 1.52); smoothed aggregation
+    (then with symmetric sweeps throughout): 33 iterations, 9.0 s at 0.5M and 217 s at 5M
+    (docs/bench/scale.md).  The Tutte system at 0.5M: 21-22 iterations and 12.4 s against 28 and
+    8.7 s.  The prolongator's Jacobi smoothing is weighted by Gershgorin's local bound, not by
+    PyAMG's default spectral-radius estimate (which starts from a random vector): the hierarchy,
+    and so every solve, is a deterministic function of the matrix.
 
     One unknown per node, so PyAMG makes the coarse matrices and the transfer operators BSR
     of 1×1 blocks, whose products leave their indices unsorted; the next level's smoothing
