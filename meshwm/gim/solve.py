@@ -124,13 +124,19 @@ def _hierarchy(matrix: sp.csr_matrix) -> Any:
             levels.append(last)
             break
     hierarchy = MultilevelSolver(levels)
-    coarse = [("gauss_seidel", {"sweep": "symmetric"})] * (len(levels) - 2)
-    change_smoothers(
-        hierarchy,
+    change_smoothers(hierarchy, *_smoothers(len(levels)))
+    return hierarchy
+
+
+def _smoothers(levels: int) -> tuple[list[tuple[str, dict]], list[tuple[str, dict]]]:
+    """The pre- and post-smoothers of a hierarchy of ``levels`` levels (:func:`_hierarchy`):
+    one forward and one backward Gauss-Seidel sweep on the finest level, a symmetric sweep on
+    each coarser one but the coarsest (solved directly)."""
+    coarse = [("gauss_seidel", {"sweep": "symmetric"})] * (levels - 2)
+    return (
         [("gauss_seidel", {"sweep": "forward"}), *coarse],
         [("gauss_seidel", {"sweep": "backward"}), *coarse],
     )
-    return hierarchy
 
 
 #: The fill-reducing orderings of the last few sparsity patterns factorised (by a digest of the

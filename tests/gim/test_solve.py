@@ -136,12 +136,7 @@ def test_the_hierarchy_is_pyamgs_built_level_by_level_in_sorted_csr(spot_mesh):
         smooth=("jacobi", {"omega": 4.0 / 3.0, "weighting": "local"}),
     )
     # The same smoothers as ours: one sweep each way on the finest level, symmetric below.
-    coarse = [("gauss_seidel", {"sweep": "symmetric"})] * (len(theirs.levels) - 2)
-    change_smoothers(
-        theirs,
-        [("gauss_seidel", {"sweep": "forward"}), *coarse],
-        [("gauss_seidel", {"sweep": "backward"}), *coarse],
-    )
+    change_smoothers(theirs, *solve._smoothers(len(theirs.levels)))
     assert abs(len(ours.levels) - len(theirs.levels)) <= 1
     assert sizes[1] == theirs.levels[1].A.shape[0]  # the same first aggregation
     b = np.random.default_rng(1).normal(size=matrix.shape[0])
@@ -233,13 +228,9 @@ def test_the_v_cycle_is_a_symmetric_preconditioner(spot_mesh, post):
     matrix = sp.csr_matrix(-igl.cotmatrix(v, f))[4:, 4:] + sp.identity(len(v) - 4) * 1e-9
     hierarchy = solve._hierarchy(matrix)
     assert len(hierarchy.levels) > 2
-    if post == "forward":
-        coarse = [("gauss_seidel", {"sweep": "symmetric"})] * (len(hierarchy.levels) - 2)
-        change_smoothers(
-            hierarchy,
-            [("gauss_seidel", {"sweep": "forward"}), *coarse],
-            [("gauss_seidel", {"sweep": "forward"}), *coarse],
-        )
+    if post == "forward":  # the pre-smoothers on both sides
+        pre, _ = solve._smoothers(len(hierarchy.levels))
+        change_smoothers(hierarchy, pre, pre)
     rng = np.random.default_rng(5)
     gaps = []
     for _ in range(5):
