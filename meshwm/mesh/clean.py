@@ -145,8 +145,7 @@ def _first_of_faces(faces: NDArray[np.int64]) -> NDArray[np.int64]:
     key = arrays_key(faces)
     found: NDArray[np.int64] | None = _FIRST_FACES.get(key)
     if found is None:
-        first, _ = _hashed_groups(np.sort(faces, axis=1).astype(np.int64))
-        found = np.sort(first)
+        found, _ = _hashed_groups(np.sort(faces, axis=1).astype(np.int64))
         found.flags.writeable = False
         _FIRST_FACES.put(key, found)
     return found

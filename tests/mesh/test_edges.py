@@ -197,7 +197,7 @@ def test_odd_vertices_are_those_whose_outgoing_and_incoming_neighbours_differ(se
 
 
 @pytest.mark.parametrize("dtype", [np.float64, np.int64])
-def test_hashed_groups_of_distinct_rows_skip_the_stable_sort_and_agree_with_it(dtype, monkeypatch):
+def test_hashed_groups_number_by_first_appearance_on_every_path(dtype, monkeypatch):
     # Rows that are all distinct take a plain sort; the groups, their numbering and each
     # group's first row are the stable sort's (forced by declaring some key a tie).
     from meshwm.mesh import edges
@@ -209,10 +209,21 @@ def test_hashed_groups_of_distinct_rows_skip_the_stable_sort_and_agree_with_it(d
     fast = [edges._hashed_groups(x) for x in (distinct, repeated)]
     monkeypatch.setattr(edges, "_all_distinct", lambda key: False)
     slow = [edges._hashed_groups(x) for x in (distinct, repeated)]
-    for a, b in zip(fast, slow, strict=True):
+    # Every hash tied (a collision): the rows themselves decide, with the same numbering.
+    monkeypatch.setattr(edges, "_row_hash", lambda bits: np.zeros(len(bits), np.int64))
+    collided = [edges._hashed_groups(x) for x in (distinct, repeated)]
+    for a, b, c in zip(fast, slow, collided, strict=True):
         np.testing.assert_array_equal(a[0], b[0])
         np.testing.assert_array_equal(a[1], b[1])
+        np.testing.assert_array_equal(a[0], c[0])
+        np.testing.assert_array_equal(a[1], c[1])
     assert len(fast[0][0]) == len(distinct) and len(fast[1][0]) == len(distinct)
+    # Numbered by first appearance: each row its own group where all are distinct, and the
+    # repeated rows in the groups of their first copies.
+    np.testing.assert_array_equal(fast[0][0], np.arange(len(distinct)))
+    np.testing.assert_array_equal(fast[0][1], np.arange(len(distinct)))
+    np.testing.assert_array_equal(fast[1][0], np.arange(len(distinct)))
+    np.testing.assert_array_equal(fast[1][1][len(distinct) :], np.arange(0, len(distinct), 7))
 
 
 @pytest.mark.parametrize("seed", range(5))
