@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["LastResult", "arrays_key", "freeze"]
+__all__ = ["LastResult", "arrays_key", "freeze", "is_frozen"]
 
 
 def arrays_key(*arrays: NDArray) -> tuple:
@@ -42,7 +42,7 @@ def _digest(a: NDArray) -> bytes:
     SHA-256, not BLAKE2b: with the SHA extensions of current x86 and ARM cores it hashes twice
     as fast (1.9 against 0.9 GB/s here), and an embedding at 2M vertices digests gigabytes.
     """
-    frozen = _is_frozen(a)
+    frozen = is_frozen(a)
     if frozen:
         with _FROZEN_LOCK:
             hit = _FROZEN.get(id(a))
@@ -64,7 +64,7 @@ def _digest(a: NDArray) -> bytes:
     return digest
 
 
-def _is_frozen(a: NDArray) -> bool:
+def is_frozen(a: NDArray) -> bool:
     """Read-only, and so is every array it is a view of, down to one that owns its memory (a
     view of a read-only array cannot be made writeable; the owner could, and the pipeline
     never does)."""

@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
+from meshwm._digest import freeze, is_frozen
 from meshwm.errors import MeshError
 
 __all__ = [
@@ -59,7 +60,7 @@ def check_integer(
 
 
 def check_mesh(
-    vertices: NDArray, faces: NDArray, *, max_faces: int = DEFAULT_MAX_FACES
+    vertices: NDArray, faces: NDArray, *, max_faces: int = DEFAULT_MAX_FACES, frozen: bool = False
 ) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
     """Check and normalise a triangle mesh given as arrays.
 
@@ -71,6 +72,12 @@ def check_mesh(
         Triangles as indices into ``vertices``.
     max_faces : int, optional
         Refuse meshes with more faces than this.
+    frozen : bool, optional
+        False (default): new arrays, the caller's to change.  True: read-only arrays
+        (:func:`meshwm._digest.freeze`), and arrays that already are (C-ordered float64 and
+        int64, read-only down to their memory) returned as they are: a pipeline that hands a
+        mesh from stage to stage then checks it without copying it, and the digests its
+        memoised steps key on are computed once (:func:`meshwm._digest.arrays_key`).
 
     Returns
     -------
@@ -104,8 +111,14 @@ def check_mesh(
             f = f.astype(np.int64)
         else:
             raise MeshError(f"face indices must be integers, got dtype {f.dtype}")
-    v = v.astype(np.float64, copy=True)
-    f = f.astype(np.int64, copy=True)
+    if frozen and is_frozen(v) and v.dtype == np.float64 and v.flags.c_contiguous:
+        pass  # immutable already: checked below, not copied
+    else:
+        v = v.astype(np.float64, copy=True)
+    if frozen and is_frozen(f) and f.dtype == np.int64 and f.flags.c_contiguous:
+        pass
+    else:
+        f = f.astype(np.int64, copy=True)
     if len(v) == 0:
         raise MeshError("mesh has no vertices")
     bad = ~np.isfinite(v).all(axis=1)
@@ -117,6 +130,8 @@ def check_mesh(
     lo, hi = int(f.min()), int(f.max())
     if lo < 0 or hi >= len(v):
         raise MeshError(f"face indices must lie in [0, {len(v) - 1}], found {lo}..{hi}")
+    if frozen:
+        freeze(v, f)
     return v, f
 
 

@@ -26,6 +26,7 @@ import scipy.sparse as sp
 from numpy.typing import NDArray
 from scipy.sparse.csgraph import connected_components, dijkstra
 
+from meshwm._digest import freeze
 from meshwm._vector import _columns
 from meshwm.errors import MeshError
 from meshwm.mesh.clean import edge_topology_counts
@@ -261,11 +262,14 @@ def cut_open(
     """
     flags = _cut_flags(faces, paths)
     vc, fc, origin = igl.cut_mesh(vertices, faces, flags)
-    fc = np.asarray(fc, dtype=np.int64)
-    origin = np.asarray(origin, dtype=np.int64)
+    # Arrays of their own (libigl's are views of its buffers), frozen below.
+    fc = np.array(fc, dtype=np.int64)
+    origin = np.array(origin, dtype=np.int64)
     chi_cut = len(vc) - _edge_count(fc) + len(fc)
     if chi_cut != 1:
         raise MeshError(f"could not cut the mesh open into a disk (Euler characteristic {chi_cut})")
+    # Read-only: the map's steps key memoised work on these (their digests kept).
+    freeze(fc, origin)
     return CutMesh(vc, fc, origin)
 
 

@@ -114,6 +114,8 @@ class SurfaceImage(NamedTuple):
 def _distinct(vertices: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
     """Distinct rows (bit-exact) and the index of each input row among them."""
     first, inverse = distinct_rows(vertices)  # numbered by first appearance
+    if len(first) == len(vertices):  # every row its own (first is 0, 1, ...): not copied
+        return vertices, inverse
     return vertices[first], inverse
 
 
@@ -166,7 +168,7 @@ def surface_of(
         Unusable arrays, a non-manifold or non-orientable surface, or one the map cannot open
         to a disk.
     """
-    v, f = check_mesh(vertices, faces, max_faces=max_faces)
+    v, f = check_mesh(vertices, faces, max_faces=max_faces, frozen=True)
     if not merge:
         return _as_given(v, f, rank=rank, min_used=min_used)
     with smoothing_ahead(v, f) if like is None and len(v) <= AHEAD_VERTICES else nullcontext():
@@ -182,8 +184,19 @@ def surface_of(
         smap = _map_filled(clean.vertices, clean.faces, rank=rank, like=reuse)
     used = np.zeros(len(positions), dtype=bool)
     used[to_position] = True
+    # Each cleaned vertex its own distinct position, in order (most meshes): the faces as
+    # they are, one array whose digest is kept.
+    same_order = len(to_position) == len(positions) and np.array_equal(
+        to_position, np.arange(len(positions))
+    )
     out = Surface(
-        positions, inverse, to_position[clean.faces], used, smap, to_position, clean.report
+        positions,
+        inverse,
+        clean.faces if same_order else to_position[clean.faces],
+        used,
+        smap,
+        to_position,
+        clean.report,
     )
     freeze(out.positions, out.inverse, out.faces, out.used, out.clean_to_position)
     return out

@@ -21,6 +21,7 @@ import numpy as np
 import scipy.sparse as sp
 from numpy.typing import NDArray
 
+from meshwm._digest import freeze
 from meshwm.errors import MeshError
 from meshwm.gim.solve import solve_with_fixed
 from meshwm.gim.stable import StableCut, cut_start, stable_cut
@@ -187,7 +188,9 @@ def stable_parameterize(
     cut = stable_cut(vertices, faces, steps=steps, lam=lam, rank=rank)
     label = np.empty_like(cut.order)
     label[cut.order] = np.arange(len(cut.order))
-    return StableMap(cut, tutte_map(cut.mesh.faces, label[cut.mesh.origin]))
+    uv = tutte_map(cut.mesh.faces, label[cut.mesh.origin])
+    freeze(uv)  # read-only: the sampling's memo keys on it (its digest kept)
+    return StableMap(cut, uv)
 
 
 def restart_map(

@@ -36,7 +36,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from meshwm._concurrent import beside
-from meshwm._digest import LastResult, arrays_key
+from meshwm._digest import LastResult, arrays_key, is_frozen
 from meshwm._validate import DEFAULT_MAX_FACES, check_mesh
 from meshwm._vector import face_cross, row_norm
 from meshwm.errors import MeshError
@@ -98,7 +98,9 @@ def _merge_exact_duplicates(
 
     Returns the vertices, the faces and the input index of each vertex kept."""
     # -0.0 and 0.0 are the same position: normalise before comparing bytes.
-    v = vertices + 0.0
+    # (Only where there is one: the array as given otherwise, whose digest may be kept.)
+    zero = vertices == 0
+    v = vertices + 0.0 if zero.any() and np.signbit(vertices[zero]).any() else vertices
     # Numbered in order of first appearance, so the result keeps the input order.
     first, inverse = distinct_rows(v)
     if len(first) == len(v):
@@ -117,12 +119,16 @@ def _drop_bad_faces(
     cx, cy, cz = cross
     zero_area = ~repeated & (cx == 0) & (cy == 0) & (cz == 0)
     keep = ~(repeated | zero_area)
-    f = faces[keep]
+    every = bool(keep.all())
+    f = faces if every else faces[keep]
     # Exact duplicate faces (same three vertices, either winding): keep the first.
     first = _first_of_faces(f)
     dup = len(f) - len(first)
-    f = f[first]
-    area = 0.5 * row_norm(cross)[keep][first]
+    area = 0.5 * row_norm(cross)
+    if not every:
+        area = area[keep]
+    if dup:
+        f, area = f[first], area[first]
     return (
         f,
         {
@@ -245,7 +251,7 @@ def clean_mesh(
     memo = _SHARED.get()
     if memo is None:
         return _clean_mesh(vertices, faces, max_faces=max_faces, min_faces=min_faces)
-    v, f = check_mesh(vertices, faces, max_faces=max_faces)
+    v, f = check_mesh(vertices, faces, max_faces=max_faces, frozen=True)
     key = (*arrays_key(v, f), int(max_faces), int(min_faces))
     if key not in memo:
         out = _clean_mesh(v, f, max_faces=max_faces, min_faces=min_faces)
@@ -259,8 +265,16 @@ def clean_mesh(
 def _clean_mesh(
     vertices: NDArray, faces: NDArray, *, max_faces: int = DEFAULT_MAX_FACES, min_faces: int = 4
 ) -> CleanMesh:
-    """:func:`clean_mesh`, computed."""
-    v, f = check_mesh(vertices, faces, max_faces=max_faces)
+    """:func:`clean_mesh`, computed.
+
+    A step that changes nothing hands on the arrays it was given.  Arrays given read-only
+    (:func:`meshwm._digest.freeze`: a pipeline's, such as the kept embedding's) are not
+    copied: a clean mesh then comes out as the input's arrays themselves, whose digests the
+    memoised steps after it find kept.  Others are copied first, so the result is the
+    caller's to change without reaching the input.
+    """
+    frozen = is_frozen(vertices) and is_frozen(faces)
+    v, f = check_mesh(vertices, faces, max_faces=max_faces, frozen=frozen)
     report: dict = {"vertices_in": len(v), "faces_in": len(f)}
     n_in = len(v)
     v, f, source = _merge_exact_duplicates(v, f)  # source: each vertex's input vertex
@@ -279,8 +293,9 @@ def _clean_mesh(
         report["vertices_unreferenced"] = n_merged - len(kept)
         same = len(f) == len(merged_faces) and len(kept) == n_merged
         copied, f, labels, counts = ahead.result() if same else structure(v, f)
-    v = v[copied]
-    source = source[copied]
+    if len(copied) != len(v) or not np.array_equal(copied, np.arange(len(v))):
+        v = v[copied]  # vertices split where the surface was pinched
+        source = source[copied]
     report.update(counts)
     # Largest component by area; ties by face count, then by smallest vertex position.  The
     # areas are the oriented faces': where one was turned over, from its new corner order
@@ -301,7 +316,9 @@ def _clean_mesh(
         np.minimum.at(comp_first, face_of_vertex, lex_rank)
         best = int(np.lexsort((comp_first, -comp_size, -comp_area))[0])
     main = labels == best
-    mv, mf, kept = _referenced(v, f[main])
+    # (Of one component, the faces themselves where the input was read-only: the connectivity
+    # step's faces are, and are the caller's to change otherwise.)
+    mv, mf, kept = _referenced(v, f if n_comp == 1 and frozen else f[main])
     if len(mf) < min_faces:
         raise MeshError(
             f"largest connected component has only {len(mf)} faces; need at least {min_faces}"

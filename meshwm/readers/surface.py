@@ -103,7 +103,7 @@ def read_surface(
     GridError
         A surface the map cannot open (non-manifold, non-orientable, too small).
     """
-    v, f = check_mesh(vertices, faces, max_faces=max_faces)  # unusable arrays: MeshError
+    v, f = check_mesh(vertices, faces, max_faces=max_faces, frozen=True)  # else MeshError
     try:
         first = surface_of(v, f, max_faces=max_faces, like=like)
     except MeshError as merged:

@@ -31,6 +31,7 @@ from trimesh.triangles import closest_point
 
 from meshwm._concurrent import beside
 from meshwm._digest import LastResult, arrays_key
+from meshwm._validate import check_mesh
 from meshwm._vector import face_cross, row_norm
 from meshwm.errors import CapacityError, MeshError
 from meshwm.gim.sampling import Sampling
@@ -668,6 +669,9 @@ def embed_kept(
     CapacityError
         A payload no size carries (the message names the largest that fits).
     """
+    # Read-only from here: the surface, its cleaning and the read-back take these very arrays
+    # (not copies), and the digests their memoised steps key on are kept with them.
+    vertices, faces = check_mesh(vertices, faces, max_faces=max_faces, frozen=True)
     surface = surface_of(vertices, faces, max_faces=max_faces)
     if int(surface.used.sum()) < len(bits):  # fewer vertices than bits: refused at once
         raise CapacityError(

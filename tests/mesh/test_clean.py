@@ -692,3 +692,25 @@ def test_each_kept_vertex_names_an_input_vertex_it_copies_bit_for_bit(case: int)
         result.vertices.view(np.uint64),
         np.asarray(vertices, np.float64)[result.source].view(np.uint64),
     )
+
+
+def test_read_only_input_comes_out_as_the_same_arrays_when_nothing_changes() -> None:
+    # A pipeline's frozen arrays are handed on (their digests kept); writable ones are copied,
+    # and a mesh that needs cleaning gets new arrays either way.
+    from meshwm._digest import freeze
+
+    vertices, faces = load_asset("spot")
+    v, f = np.array(vertices, dtype=np.float64), np.array(faces, dtype=np.int64)
+    freeze(v, f)
+    clean = clean_mesh(v, f)
+    assert clean.vertices is v and clean.faces is f
+    assert_array_equal(clean.source, np.arange(len(v)))
+    writable = clean_mesh(v.copy(), f.copy())
+    assert writable.vertices.flags.writeable and writable.faces.flags.writeable
+    assert_array_equal(writable.vertices, v)
+    assert_array_equal(writable.faces, f)
+    doubled = np.concatenate([f, f[:5]])  # five duplicate faces: dropped, new arrays
+    freeze(doubled)
+    out = clean_mesh(v, doubled)
+    assert out.faces is not doubled and out.report["faces_duplicate"] == 5
+    assert_array_equal(out.faces, f)
