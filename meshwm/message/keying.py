@@ -116,10 +116,48 @@ def keyed_permutation(key: str | bytes, purpose: str, count: int) -> NDArray[np.
     bound = np.arange(count, 1, -1, dtype=np.uint64)  # i + 1 for i = count - 1 .. 1
     if _rejected(x, bound).any():  # then the draws after it shift: swap by swap
         return _fisher_yates(key, purpose, count, raw)
-    perm = list(range(count))
-    for i, j in zip(range(count - 1, 0, -1), (x % bound).tolist(), strict=True):
-        perm[i], perm[j] = perm[j], perm[i]
-    return np.asarray(perm, dtype=np.int64)
+    return _swapped((x % bound).astype(np.int64), count)
+
+
+def _swapped(draws: NDArray[np.int64], count: int) -> NDArray[np.int64]:
+    """``0 .. count-1`` after Fisher-Yates' swaps: for ``i = count-1 .. 1``, positions ``i``
+    and ``draws[count-1-i]`` (at most ``i``) exchanged; the same permutation as swapping one
+    by one, without a Python loop (142k slots, N = 1024: 0.05-0.1 s -> 0.02 s).
+
+    Position ``i`` is final after its swap, and takes what position ``j = draws[..]`` holds
+    then: ``j``'s value, or, where a swap ``k > i`` wrote ``j`` before (the last of them is the
+    smallest such ``k``), what position ``k`` held just before its own swap.  That value,
+    ``W(k)``, is in turn ``k``'s own, or ``W`` of the first swap after ``k`` that wrote ``k``:
+    a chain of increasing steps, followed to its end by pointer doubling.  Position 0 is as a
+    swap of 0 with itself.
+    """
+    if count < 2:
+        return np.arange(count, dtype=np.int64)
+    target = np.empty(count, dtype=np.int64)  # the position swap i exchanges with i
+    target[0] = 0
+    target[1:] = draws[::-1]
+    steps = np.arange(count, dtype=np.int64)
+    # The swaps by position written, each position's in increasing step order (one key each:
+    # count² < 2**62 for any count an array holds).
+    packed = np.sort(target * count + steps)
+    written, step = packed // count, packed % count
+    same = written[1:] == written[:-1]
+    # later[i]: the smallest swap k > i that wrote position target[i], or -1.
+    later = np.full(count, -1, dtype=np.int64)
+    later[step[:-1][same]] = step[1:][same]
+    # chain[k]: the first swap after k that wrote position k, or k itself (none): a swap k'
+    # writes k only if k' >= k, and k' = k leaves it as it is.
+    after = np.flatnonzero(step > written)
+    head = np.ones(len(after), dtype=bool)
+    head[1:] = written[after[1:]] != written[after[:-1]]
+    chain = steps.copy()
+    chain[written[after[head]]] = step[after[head]]
+    while True:  # pointer doubling: each chain's end, W
+        jumped = chain[chain]
+        if np.array_equal(jumped, chain):
+            break
+        chain = jumped
+    return np.where(later >= 0, chain[np.maximum(later, 0)], target)
 
 
 def _rejected(x: NDArray[np.uint64], bound: NDArray[np.uint64]) -> NDArray[np.bool_]:

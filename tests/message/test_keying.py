@@ -128,6 +128,29 @@ def test_permutation_is_the_draw_by_draw_fisher_yates(key, count):
     )
 
 
+@pytest.mark.parametrize("seed", range(6))
+def test_swaps_applied_at_once_are_the_swaps_one_by_one(seed):
+    from meshwm.message.keying import _swapped
+
+    rng = np.random.default_rng(seed)
+    counts = [2, 3, 4, 5, 17, 64, 1000, int(rng.integers(2, 20_000))]
+    for count in counts:
+        uniform = [int(rng.integers(0, i + 1)) for i in range(count - 1, 0, -1)]
+        cases = {
+            "uniform": uniform,
+            "identity": list(range(count - 1, 0, -1)),  # every position swapped with itself
+            "to zero": [0] * (count - 1),  # one long chain through position 0
+            "to next": [i - 1 for i in range(count - 1, 0, -1)],
+            "low": [int(rng.integers(0, min(i, 3) + 1)) for i in range(count - 1, 0, -1)],
+        }
+        for name, draws in cases.items():
+            perm = list(range(count))
+            for i, j in zip(range(count - 1, 0, -1), draws, strict=True):
+                perm[i], perm[j] = perm[j], perm[i]
+            got = _swapped(np.asarray(draws, dtype=np.int64), count)
+            assert got.tolist() == perm, (count, name)
+
+
 def test_rejection_test_matches_integer_arithmetic():
     from meshwm.message.keying import _rejected
 
