@@ -417,3 +417,21 @@ def test_calibration_ends_early_from_n_512_only(n, embeddings, monkeypatch):
     if n >= module.CALIBRATION_EARLY_FROM:
         target = RobustOptions().distortion
         assert abs(measured - target) <= module.CALIBRATION_TOLERANCE * target
+
+
+def test_warm_keeps_the_layout_the_embedding_then_uses_and_leaves_refusals_to_it():
+    from meshwm.errors import CapacityError
+    from meshwm.profiles.robust.profile import PROFILE
+    from meshwm.profiles.robust.slots import _cached_layout
+
+    _cached_layout.cache_clear()
+    PROFILE.warm(64, key="warm-key", n_bits=64)
+    assert _cached_layout.cache_info().currsize == 1
+    gim, bits = _surface(64), _bits(64)
+    PROFILE.embed(gim, bits, key="warm-key")
+    info = _cached_layout.cache_info()
+    assert info.hits >= 1 and info.currsize == 1  # the embedding took the warmed layout
+    PROFILE.warm(64, key="warm-key", n_bits=10**6)  # does not fit: nothing kept, no error
+    assert _cached_layout.cache_info().currsize == 1
+    with pytest.raises(CapacityError):
+        PROFILE.embed(gim, np.zeros(10**6, dtype=np.uint8), key="warm-key")

@@ -7,10 +7,12 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from meshwm.errors import CapacityError
 from meshwm.profiles.base import Decoded, Embedding
 from meshwm.profiles.robust.embed import embed_gim_robust
 from meshwm.profiles.robust.options import RobustOptions
 from meshwm.profiles.robust.search import MAX_HYPOTHESES, Candidates
+from meshwm.profiles.robust.slots import _layout
 from meshwm.readers.base import SampledImage
 
 __all__ = ["PROFILE", "RobustProfile"]
@@ -36,6 +38,15 @@ class RobustProfile:
         res = embed_gim_robust(gim, bits, key=key, options=options)
         assert res.gim is not None  # embedding always returns the marked image
         return Embedding(np.asarray(gim, dtype=np.float64), res.gim, res.report)
+
+    def warm(self, size: int, *, key: str | bytes, n_bits: int) -> None:
+        """Make (and keep) the keyed slot layout an N = ``size`` image will use: a caller may
+        run this beside other work.  A payload the size cannot carry is left for
+        :meth:`embed` to refuse."""
+        try:
+            _layout(size, key, n_bits)
+        except (CapacityError, ValueError, TypeError):
+            return
 
     def prepare(self, image: SampledImage, *, options: RobustOptions | None = None) -> Candidates:
         """The candidates a received image offers (:class:`~.search.Candidates`)."""
