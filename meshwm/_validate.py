@@ -111,13 +111,10 @@ def check_mesh(
             f = f.astype(np.int64)
         else:
             raise MeshError(f"face indices must be integers, got dtype {f.dtype}")
-    if frozen and is_frozen(v) and v.dtype == np.float64 and v.flags.c_contiguous:
-        pass  # immutable already: checked below, not copied
-    else:
+    # (With ``frozen``, arrays immutable already are checked below, not copied.)
+    if not (frozen and is_frozen(v) and v.dtype == np.float64 and v.flags.c_contiguous):
         v = v.astype(np.float64, copy=True)
-    if frozen and is_frozen(f) and f.dtype == np.int64 and f.flags.c_contiguous:
-        pass
-    else:
+    if not (frozen and is_frozen(f) and f.dtype == np.int64 and f.flags.c_contiguous):
         f = f.astype(np.int64, copy=True)
     if len(v) == 0:
         raise MeshError("mesh has no vertices")

@@ -316,8 +316,8 @@ def _clean_mesh(
         np.minimum.at(comp_first, face_of_vertex, lex_rank)
         best = int(np.lexsort((comp_first, -comp_size, -comp_area))[0])
     main = labels == best
-    # (Of one component, the faces themselves where the input was read-only: the connectivity
-    # step's faces are, and are the caller's to change otherwise.)
+    # One component: its faces are the connectivity step's (read-only), handed on as they are
+    # where the input was read-only too, else copied (the caller's to change).
     mv, mf, kept = _referenced(v, f if n_comp == 1 and frozen else f[main])
     if len(mf) < min_faces:
         raise MeshError(

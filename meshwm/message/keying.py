@@ -119,6 +119,10 @@ def keyed_permutation(key: str | bytes, purpose: str, count: int) -> NDArray[np.
     return _swapped((x % bound).astype(np.int64), count)
 
 
+#: Counts below this pack (position, step) into one int64 key (count² < 2**63).
+_PACKED_BELOW = 3_037_000_499
+
+
 def _swapped(draws: NDArray[np.int64], count: int) -> NDArray[np.int64]:
     """``0 .. count-1`` after Fisher-Yates' swaps: for ``i = count-1 .. 1``, positions ``i``
     and ``draws[count-1-i]`` (at most ``i``) exchanged; the same permutation as swapping one
@@ -137,10 +141,14 @@ def _swapped(draws: NDArray[np.int64], count: int) -> NDArray[np.int64]:
     target[0] = 0
     target[1:] = draws[::-1]
     steps = np.arange(count, dtype=np.int64)
-    # The swaps by position written, each position's in increasing step order (one key each:
-    # count² < 2**62 for any count an array holds).
-    packed = np.sort(target * count + steps)
-    written, step = packed // count, packed % count
+    # The swaps by position written, each position's in increasing step order: one sort of a
+    # packed key where count² fits in int64 (any layout's count does), else a lexsort.
+    if count < _PACKED_BELOW:
+        packed = np.sort(target * count + steps)
+        written, step = packed // count, packed % count
+    else:
+        order = np.lexsort((steps, target))
+        written, step = target[order], steps[order]
     same = written[1:] == written[:-1]
     # later[i]: the smallest swap k > i that wrote position target[i], or -1.
     later = np.full(count, -1, dtype=np.int64)
