@@ -19,6 +19,7 @@ from numpy.typing import NDArray
 from meshwm._digest import LastResult, arrays_key, freeze
 from meshwm._vector import face_cross, row_norm
 from meshwm.errors import MeshError
+from meshwm.mesh.edges import unique_edges
 
 __all__ = ["Filled", "boundary_loops", "fill_holes", "loop_length"]
 
@@ -89,6 +90,8 @@ def _boundary_loops(faces: NDArray[np.int64]) -> list[NDArray[np.int64]]:
     """:func:`boundary_loops`, computed."""
     n = int(faces.max()) + 1 if len(faces) else 0
     a, b = faces.ravel(), faces[:, [1, 2, 0]].ravel()
+    if _closed(a, b, faces):
+        return []
     # A half-edge a -> b is on the border when no face has b -> a.  Both keys sorted, so the
     # search walks memory in order (2.1M vertices: 0.26 s, against 2.9 s searching for the
     # half-edges in face order), and a closed surface is found by one comparison.  A stable
@@ -120,6 +123,19 @@ def _boundary_loops(faces: NDArray[np.int64]) -> list[NDArray[np.int64]]:
             seen[loop[-1]] = True
         loops.append(np.asarray(loop, dtype=np.int64))
     return loops
+
+
+def _closed(a: NDArray[np.int64], b: NDArray[np.int64], faces: NDArray[np.int64]) -> bool:
+    """Whether every edge has exactly two corner-edges ``a -> b``, one each way: then no
+    half-edge lacks its reverse and there is no border.  (The faces' unique edges are kept
+    from the cleaning, which found them: two counts instead of the two sorts, 0.012 s against
+    0.05-0.12 s at 134k vertices.)  False says nothing: the sorts decide."""
+    edges, inverse = unique_edges(faces)
+    if len(inverse) != 2 * len(edges):
+        return False
+    each = np.bincount(inverse, minlength=len(edges))
+    forward = np.bincount(inverse[a < b], minlength=len(edges))
+    return bool(np.all(each == 2) and np.all(forward == 1))
 
 
 def loop_length(points: NDArray[np.float64], loop: NDArray[np.int64]) -> float:
