@@ -223,6 +223,14 @@ def _precondition(hierarchy: Any, r: NDArray[np.float64]) -> NDArray[np.float64]
     return x
 
 
+def _dot(a: NDArray[np.float64], b: NDArray[np.float64]) -> float:
+    """``a · b`` summed in an order of its own (einsum's), not BLAS's: BLAS splits a long dot
+    product between its threads, so its rounding, and every iterate after it, depended on the
+    machine's cores (igea Loop-subdivided twice, 2.1M vertices: another marked mesh with one
+    thread than with two)."""
+    return float(np.einsum("i,i->", a, b))
+
+
 def _pcg(
     hierarchy: Any,
     b: NDArray[np.float64],
@@ -231,8 +239,8 @@ def _pcg(
     tol: float,
     maxiter: int,
 ) -> NDArray[np.float64]:
-    """``hierarchy.solve(b, x0=guess, tol=tol, maxiter=maxiter, accel="cg")``, bit for bit,
-    at about two thirds of its cost.
+    """``hierarchy.solve(b, x0=guess, tol=tol, maxiter=maxiter, accel="cg")`` at about two
+    thirds of its cost, its dot products summed by :func:`_dot`.
 
     PyAMG's conjugate gradients (``pyamg.krylov.cg``, criterion ``"rr"``: the residual's norm
     against ``tol`` times the right-hand side's) with its multigrid preconditioner, the same
@@ -242,8 +250,9 @@ def _pcg(
     last residual is preconditioned before the stopping test, and a zero start's residual is
     computed by a product with zero.  The captured Tutte system of igea Loop-subdivided twice
     (2.1M unknowns, 30 iterations to 1e-10): 8.4 s against 6.7 s a column; the transfer's
-    (3 iterations): 1.10 s against 0.65 s; the same solutions bit for bit, with and without a
-    start.
+    (3 iterations): 1.10 s against 0.65 s.  With PyAMG's dot products (BLAS's) the solutions
+    were PyAMG's bit for bit, with and without a start; with :func:`_dot`'s they are PyAMG's
+    to about 1e-11, and the same on any machine.
     """
     a = hierarchy.levels[0].A
     if guess is None:
@@ -254,16 +263,16 @@ def _pcg(
         r = b - a @ x
     z = _precondition(hierarchy, r)
     p = z.copy()
-    rz = np.inner(r, z)
-    normb = float(np.sqrt(np.inner(b, b)))
+    rz = _dot(r, z)
+    normb = float(np.sqrt(_dot(b, b)))
     stop = tol * (normb if normb != 0.0 else 1.0)
-    if np.linalg.norm(r) < stop:
+    if np.sqrt(_dot(r, r)) < stop:
         return x
     it = 0
     while True:
         ap = a @ p
         rz_old = rz
-        pap = np.inner(ap, p)
+        pap = _dot(ap, p)
         if pap < 0.0:  # not positive definite: stop where PyAMG stops
             return x
         alpha = rz / pap
@@ -272,10 +281,10 @@ def _pcg(
             r -= alpha * ap
         else:
             r = b - a @ x
-        if np.linalg.norm(r) < stop or it + 1 == maxiter:
+        if np.sqrt(_dot(r, r)) < stop or it + 1 == maxiter:
             return x
         z = _precondition(hierarchy, r)
-        rz = np.inner(r, z)
+        rz = _dot(r, z)
         if rz < 0.0:
             return x
         p *= rz / rz_old

@@ -126,13 +126,16 @@ def _solve(
     keep = _moments(sampling)
     k = len(change)
 
+    # The products with ``keep`` are einsum's, not BLAS's (``keep @ delta``, ``y @ keep``):
+    # BLAS splits a long product between its threads, which changes its sums' rounding, and
+    # the marked mesh (igea's, 134k vertices) came out other on a machine with other cores.
     def forward(delta: NDArray[np.float64]) -> NDArray[np.float64]:
         proj = radial_projections(np.asarray(matrix @ delta).reshape(n, n), layout)
-        return np.concatenate([proj, keep @ delta])
+        return np.concatenate([proj, np.einsum("ij,j->i", keep, delta)])
 
     def adjoint(y: NDArray[np.float64]) -> NDArray[np.float64]:
         out: NDArray[np.float64] = np.asarray(matrix.T @ radial_spread(y[:k], layout).ravel()) + (
-            y[k:] @ keep
+            np.einsum("i,ij->j", y[k:], keep)
         )
         return out
 

@@ -2,6 +2,12 @@
 
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -88,7 +94,9 @@ def test_solve_with_fixed_by_multigrid_at_any_size_agrees_with_the_direct_solve(
 
 @pytest.mark.parametrize(("tol", "maxiter"), [(1e-10, 400), (1e-6, 3), (1e-300, 20)])
 @pytest.mark.parametrize("start", [False, True])
-def test_conjugate_gradients_give_pyamgs_solution_bit_for_bit(spot_mesh, tol, maxiter, start):
+def test_conjugate_gradients_are_pyamgs_iteration(spot_mesh, tol, maxiter, start, monkeypatch):
+    # PyAMG's operations in PyAMG's order: with its dot products (BLAS's) the same solution
+    # bit for bit; with meshwm's own (summed in a fixed order), the same to rounding.
     import scipy.sparse as sp
 
     from meshwm.gim.transfer import uniform_laplacian
@@ -102,11 +110,15 @@ def test_conjugate_gradients_give_pyamgs_solution_bit_for_bit(spot_mesh, tol, ma
     hierarchy = solve._hierarchy(matrix)
     assert len(hierarchy.levels) > 2  # the V-cycle recurses
     got = solve._amg_solve(hierarchy, rhs, guess=guess, tol=tol, maxiter=maxiter)
+    with monkeypatch.context() as m:
+        m.setattr(solve, "_dot", lambda a, b: np.inner(a, b))
+        as_pyamg = solve._amg_solve(hierarchy, rhs, guess=guess, tol=tol, maxiter=maxiter)
     for c in range(2):
         x0 = None if guess is None else np.ascontiguousarray(guess[:, c])
         b = np.ascontiguousarray(rhs[:, c])
         want = hierarchy.solve(b, x0=x0, tol=tol, maxiter=maxiter, accel="cg")
-        np.testing.assert_array_equal(got[:, c], want)
+        np.testing.assert_array_equal(as_pyamg[:, c], want)
+        np.testing.assert_allclose(got[:, c], want, rtol=0, atol=1e-9 * np.abs(want).max())
     if maxiter == 400:
         residual = np.linalg.norm(matrix @ got - rhs, axis=0) / np.linalg.norm(rhs, axis=0)
         assert residual.max() < 1e-9
@@ -241,3 +253,41 @@ def test_the_v_cycle_is_a_symmetric_preconditioner(spot_mesh, post):
         assert max(gaps) < 1e-12
     else:
         assert max(gaps) > 1e-6
+
+
+_THREADS_PROBE = textwrap.dedent(
+    """
+    import hashlib, sys
+    import numpy as np
+    import scipy.sparse as sp
+    sys.path.insert(0, sys.argv[1])
+    from _fixtures_cutmap import bumpy_sphere
+    from meshwm.gim import solve
+    from meshwm.gim.transfer import uniform_laplacian
+    v, f = bumpy_sphere(7)
+    laplacian = uniform_laplacian(f, len(v))
+    matrix = sp.csr_matrix(laplacian.T @ laplacian + 1e-3 * sp.identity(len(v)))
+    rhs = np.random.default_rng(7).normal(size=(len(v), 1))
+    x = solve._amg_solve(solve._hierarchy(matrix), rhs, guess=None, tol=1e-10, maxiter=30)
+    print(hashlib.sha256(x.tobytes()).hexdigest())
+    """
+)
+
+
+def test_the_multigrid_solution_is_the_same_whatever_blas_threads_the_machine_has():
+    # BLAS splits a long dot product between its threads, each split rounding its own way:
+    # the iterates depended on the machine's cores (a 2.1M-vertex embedding came out other
+    # with one thread than with two).
+    tests = str(Path(__file__).resolve().parents[1])
+    digests = set()
+    for threads in ("1", "2"):
+        env = {**os.environ, "OPENBLAS_NUM_THREADS": threads, "OMP_NUM_THREADS": threads}
+        out = subprocess.run(
+            [sys.executable, "-c", _THREADS_PROBE, tests],
+            capture_output=True,
+            text=True,
+            env=env,
+            check=True,
+        )
+        digests.add(out.stdout.strip())
+    assert len(digests) == 1

@@ -2,6 +2,12 @@
 
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
 import numpy as np
 import pytest
 from _dev_meshes import DEV, needs_dev
@@ -137,3 +143,38 @@ def test_one_move_settles_where_passes_chased_the_pose(name):
     assert_array_equal(got, BITS)
     assert np.abs(confidence).min() > 0.999
     assert normal_rms(v, f, mark.vertices - v) < 5e-5
+
+
+_THREADS_PROBE = textwrap.dedent(
+    """
+    import hashlib, sys
+    sys.path.insert(0, sys.argv[1])
+    from _fixtures_cutmap import bumpy_sphere
+    from meshwm.message.payload import encode_id
+    from meshwm.watermark.radial import embed_radial
+    v, f = bumpy_sphere(7)
+    bits = encode_id(bytes.fromhex("0123456789abcdef"))
+    mark = embed_radial(v, f, bits, key="a studio key", read_back=False)
+    print(hashlib.sha256(mark.vertices.tobytes()).hexdigest())
+    """
+)
+
+
+def test_the_marked_mesh_is_the_same_whatever_blas_threads_the_machine_has():
+    # BLAS splits a long product between its threads, and each split rounds its sums its own
+    # way: the carrier's products with the nine pose constraints (a 9 x 65k matrix) gave
+    # other bits with one thread than with two, so the same mesh and key came out other on a
+    # machine with other cores.
+    tests = str(Path(__file__).resolve().parents[1])
+    digests = set()
+    for threads in ("1", "2"):
+        env = {**os.environ, "OPENBLAS_NUM_THREADS": threads, "OMP_NUM_THREADS": threads}
+        out = subprocess.run(
+            [sys.executable, "-c", _THREADS_PROBE, tests],
+            capture_output=True,
+            text=True,
+            env=env,
+            check=True,
+        )
+        digests.add(out.stdout.strip())
+    assert len(digests) == 1
