@@ -104,7 +104,7 @@ KEEP_ENERGY = "dirichlet"
 _BASIS_DENSITY = 8
 #: Least-squares refinement passes of each transfer (the outer passes refine too).
 _TRANSFER_PASSES = 1
-#: Radial passes after a peak clamp moved a projection off its lattice point.
+#: Radial moves after a peak clamp moved a projection to the wrong side of its bit.
 _RADIAL_REPAIRS = 2
 #: A read-back with more wrong bits than this is another map's, not a weak mark's: no other
 #: size will do better (a symmetric shape, whose cut start the mark itself decides).
@@ -463,7 +463,7 @@ def _carry_radial(
 
     ``faces`` are the input's faces over ``positions`` (every component: the radial carrier
     reads the whole point set); ``clamp_faces`` the surface whose peaks are capped.  A clamp
-    that moves a projection off its lattice point is followed by one more radial pass.
+    that moves a projection to the wrong side of its bit is followed by one more radial move.
 
     ``alongside(d)`` of the clamped displacement is computed in a second thread while the
     carrier is read back (both are numpy and scipy work that releases the GIL), and returned
@@ -476,9 +476,14 @@ def _carry_radial(
     if point_count(positions, faces) < MIN_POINTS:  # too few to carry it
         clamped = _clamp_peaks(positions, clamp_faces, d)
         return clamped, {"radial_n": None, "radial": "too small"}, None
-    passes = RADIAL_PASSES
     after: _T | None = None
-    for _ in range(1 + _RADIAL_REPAIRS):
+    # First one move, no second pass checking it (one settles every projection within a
+    # hundredth of a step on every development mesh): the read-back after the clamp below is
+    # the check that counts, and the carrier's own check read the mesh before the clamp.  A
+    # read-back with a wrong bit is followed by the carrier's passes (a pose that is a
+    # near-tie, a ball's or a torus's, moves under the first move: its passes follow it),
+    # then by one more move.
+    for passes in (0, RADIAL_PASSES, 1)[: 1 + _RADIAL_REPAIRS]:
         try:
             mark = embed_radial(
                 positions + d, faces, bits, key=key, n=n, passes=passes, read_back=False
@@ -494,7 +499,6 @@ def _carry_radial(
             if report["radial_ber"] == 0:
                 after = next_step.result()
                 break
-        passes = 1
     return clamped, report, after
 
 
