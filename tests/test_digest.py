@@ -74,3 +74,70 @@ def test_a_surfaces_arrays_are_frozen(spot_mesh):
     for a in (s.positions, s.inverse, s.faces, s.used, s.clean_to_position):
         assert not a.flags.writeable
     assert v.flags.writeable and f.flags.writeable  # the caller's arrays are not touched
+
+
+def test_a_value_asked_for_by_two_threads_at_once_is_made_once():
+    import threading
+    import time
+
+    from meshwm._digest import LastResult
+
+    memo = LastResult()
+    calls = []
+    started = threading.Event()
+
+    def make():
+        calls.append(threading.current_thread().name)
+        started.set()
+        time.sleep(0.2)  # the second thread asks meanwhile
+        return "edges"
+
+    got = []
+    first = threading.Thread(target=lambda: got.append(memo.made_once(("k",), make)))
+    first.start()
+    started.wait()
+    got.append(memo.made_once(("k",), make))  # waits for the first thread's
+    first.join()
+    assert got == ["edges", "edges"] and len(calls) == 1
+    assert memo.get(("k",)) == "edges"
+    assert memo.made_once(("other",), lambda: 7, keep=False) == 7
+    assert memo.get(("other",)) is None and memo.get(("k",)) == "edges"
+
+
+def test_what_making_raised_is_raised_to_every_asker_and_nothing_is_kept():
+    import threading
+    import time
+
+    from meshwm._digest import LastResult
+
+    memo = LastResult()
+    release = threading.Event()
+    started = threading.Event()
+    calls = []
+
+    def make():
+        calls.append(1)
+        started.set()
+        release.wait(5)
+        raise ValueError("bad faces")
+
+    errors = []
+
+    def ask():
+        try:
+            memo.made_once(("k",), make)
+        except ValueError as exc:
+            errors.append(str(exc))
+
+    first = threading.Thread(target=ask)
+    first.start()
+    started.wait()
+    second = threading.Thread(target=ask)
+    second.start()
+    time.sleep(0.2)  # the second is waiting for the first's
+    release.set()
+    first.join()
+    second.join()
+    assert errors == ["bad faces", "bad faces"] and len(calls) == 1
+    assert memo.get(("k",)) is None
+    assert memo.made_once(("k",), lambda: 1) == 1  # made afresh after the failure

@@ -279,17 +279,18 @@ def _edges_of(
     faces: NDArray[np.int64], *, keep: bool = True
 ) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.int64] | None]:
     key = arrays_key(faces)
-    found: tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.int64] | None] | None
-    found = _EDGES.get(key)
-    if found is None:
+    made: list[NDArray[np.int64]] = []
+
+    def make() -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.int64] | None]:
         edges, inverse, order = _unique_edges(faces)
         for a in (edges, inverse, order):
             a.flags.writeable = False
-        if keep:
-            # The order is 240 MB at 5M vertices, kept through the embedding's peak.
-            _EDGES.put(key, (edges, inverse, order if inverse.size <= _ORDER_MEMO_SIZE else None))
-        return edges, inverse, order  # this caller has the order it was found with
-    return found
+        made.append(order)
+        # The order is 240 MB at 5M vertices, kept through the embedding's peak.
+        return edges, inverse, order if inverse.size <= _ORDER_MEMO_SIZE else None
+
+    edges, inverse, order = _EDGES.made_once(key, make, keep=keep)
+    return edges, inverse, made[0] if made else order  # the order it was found with
 
 
 #: The last faces' unique edges (:func:`unique_edges`, by a digest of the faces): the cleaning,
