@@ -107,6 +107,40 @@ def _corner_labels(
     return connected_components(graph, directed=False)
 
 
+def _one_fan_each(
+    faces: NDArray[np.int64], first: NDArray[np.int64], second: NDArray[np.int64], n: int
+) -> bool:
+    """Whether every one of the ``n`` vertices has exactly one fan of corners, where that is
+    cheap to see: on a closed, consistently oriented surface (every edge two corner-edges that
+    run opposite ways, none from a vertex to itself) each corner is joined to two others, the
+    next corner around its vertex and the one before, so the corner groups of
+    :func:`_corner_labels` are the cycles of the permutation ``c -> head(twin(c))``, counted
+    here by pointer doubling (igea, 806k corners: 0.02 s against 0.12 s for the connected
+    components).  False says nothing: the components decide.
+    """
+    m3 = faces.size
+    if 2 * len(first) != m3:
+        return False
+    flat = faces.reshape(-1)
+
+    def head(corner_edge: NDArray[np.int64]) -> NDArray[np.int64]:
+        return corner_edge + np.where(corner_edge % 3 == 2, -2, 1)
+
+    head1, head2 = head(first), head(second)
+    if not (np.array_equal(flat[first], flat[head2]) and np.all(flat[first] != flat[head1])):
+        return False
+    step = np.empty(m3, dtype=np.int64)
+    step[first], step[second] = head2, head1
+    around = int(np.bincount(flat).max())  # the longest cycle: a vertex's corners
+    label = np.arange(m3)
+    reach = 1
+    while reach < around:  # label: the least corner within `reach` steps on
+        np.minimum(label, label[step], out=label)
+        step = step[step]
+        reach *= 2
+    return int(np.count_nonzero(label == np.arange(m3))) == n
+
+
 def _rebuild_connectivity(
     vertices: NDArray[np.float64], faces: NDArray[np.int64], order: NDArray[np.int64]
 ) -> tuple[NDArray[np.int64], NDArray[np.int64], int, int]:
@@ -161,6 +195,8 @@ def _rebuild_connectivity(
             resolved += 1
         first = np.concatenate([first, np.asarray(extra1, dtype=np.int64)])
         second = np.concatenate([second, np.asarray(extra2, dtype=np.int64)])
+    if not len(heavy) and _one_fan_each(faces, first, second, len(vertices)):
+        return np.arange(len(vertices)), faces, 0, resolved
     n_groups, labels = _corner_labels(faces, first, second)
     flat = faces.reshape(-1)
     if n_groups == len(vertices):

@@ -104,3 +104,51 @@ def test_dropped_faces_areas_are_the_kept_faces_areas_bit_for_bit():
     kept, counts, area = _drop_bad_faces(v, faces)
     assert counts["faces_zero_area"] >= 1 and counts["faces_duplicate"] >= 2
     assert_array_equal(area, 0.5 * row_norm(face_cross(v, kept)))
+
+
+def _closed_surfaces():
+    """Closed, consistently oriented surfaces, and the same pinched at a vertex."""
+    import igl
+    import trimesh
+
+    tet = np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]], dtype=np.int64)
+    box = np.asarray(trimesh.creation.box().faces, dtype=np.int64)
+    sphere = np.asarray(trimesh.creation.icosphere(subdivisions=2).faces, dtype=np.int64)
+    torus = np.asarray(trimesh.creation.torus(1.0, 0.3, 24, 12).faces, dtype=np.int64)
+    _, f = igl.loop(np.asarray(trimesh.creation.box().vertices), box)
+    out = [tet, box, sphere, torus, np.asarray(f, dtype=np.int64)]
+    # Two surfaces sharing one vertex (two fans there), and a sphere pinched to itself.
+    out.append(np.concatenate([tet, tet + 3]))  # vertex 3 is in both
+    pinched = sphere.copy()
+    pinched[pinched == sphere.max()] = 0  # two far vertices made one
+    out.append(pinched)
+    return out
+
+
+def test_one_fan_each_is_what_the_corner_groups_say_where_it_answers():
+    from meshwm.mesh.manifold import _one_fan_each
+
+    answered = 0
+    for faces in _closed_surfaces():
+        n = int(faces.max()) + 1
+        first, second = _glued_pairs(faces)
+        groups, _ = _corner_labels(faces, first, second)
+        quick = _one_fan_each(faces, first, second, n)
+        assert quick == (groups == n)  # closed and oriented: it always answers
+        answered += quick
+        # Turned over in part, or opened: it declines, whatever the components say.
+        flipped = faces.copy()
+        flipped[0] = flipped[0, ::-1]
+        assert not _one_fan_each(flipped, *_glued_pairs(flipped), n)
+        opened = faces[1:]
+        assert not _one_fan_each(opened, *_glued_pairs(opened), n)
+    assert answered == 5  # the five unpinched surfaces
+    rng = np.random.default_rng(3)
+    for trial in range(300):  # random soups: never a wrong yes
+        faces = _random_faces(rng, trial)
+        if len(faces) == 0:
+            continue
+        n = int(faces.max()) + 1
+        first, second = _glued_pairs(faces)
+        if _one_fan_each(faces, first, second, n):
+            assert _corner_labels(faces, first, second)[0] == n
