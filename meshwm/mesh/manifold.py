@@ -79,6 +79,11 @@ def _radial_pairs(
     return candidates or None
 
 
+def _head(corner_edge: NDArray[np.int64]) -> NDArray[np.int64]:
+    """The corner a corner-edge of a triangle runs to (the next corner of its face)."""
+    return corner_edge + np.where(corner_edge % 3 == 2, -2, 1)
+
+
 def _corner_labels(
     faces: NDArray[np.int64], first: NDArray[np.int64], second: NDArray[np.int64]
 ) -> tuple[int, NDArray[np.int64]]:
@@ -92,11 +97,7 @@ def _corner_labels(
     """
     m = len(faces)
     flat = faces.reshape(-1)
-
-    def head(corner_edge: NDArray[np.int64]) -> NDArray[np.int64]:
-        return corner_edge + np.where(corner_edge % 3 == 2, -2, 1)
-
-    head1, head2 = head(first), head(second)
+    head1, head2 = _head(first), _head(second)
     same_way = flat[first] == flat[second]
     loop = flat[first] == flat[head1]  # an edge from a vertex to itself: every end meets
     meets_tail = np.where(same_way, second, head2)  # the other corner-edge's end at first's tail
@@ -122,11 +123,7 @@ def _one_fan_each(
     if 2 * len(first) != m3:
         return False
     flat = faces.reshape(-1)
-
-    def head(corner_edge: NDArray[np.int64]) -> NDArray[np.int64]:
-        return corner_edge + np.where(corner_edge % 3 == 2, -2, 1)
-
-    head1, head2 = head(first), head(second)
+    head1, head2 = _head(first), _head(second)
     if not (np.array_equal(flat[first], flat[head2]) and np.all(flat[first] != flat[head1])):
         return False
     step = np.empty(m3, dtype=np.int64)

@@ -483,7 +483,7 @@ def _carry_radial(
     # read-back with a wrong bit is followed by the carrier's passes (a pose that is a
     # near-tie, a ball's or a torus's, moves under the first move: its passes follow it),
     # then by one more move.
-    for passes in (0, RADIAL_PASSES, 1)[: 1 + _RADIAL_REPAIRS]:
+    for passes in (0, RADIAL_PASSES, *(1,) * (_RADIAL_REPAIRS - 1)):
         try:
             mark = embed_radial(
                 positions + d, faces, bits, key=key, n=n, passes=passes, read_back=False
