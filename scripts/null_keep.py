@@ -9,10 +9,13 @@ back equal to the one expected), and for any valid id at all (``--any-id``: a Re
 decode whose CRC-32 matches).  Then each mesh is marked with an id (its mesh kept) and read with
 ``--wrong-keys`` other keys.  Keys and ids come from SHA-256 of a seed, never from the right
 key.  Prints a table (detections, valid ids, smallest p-value x hypotheses) and exits 1 if
-anything is detected.
+anything is detected.  With ``--logo`` the expected payload is the bundled 32×32 logo, decided as
+``meshwm verify --mark`` decides (p-value of the bits' agreement below 1e-6 over every
+hypothesis counted; "valid ids" is then 0), and the marked meshes carry the logo (a mesh that
+cannot is a row with the refusal).
 
     python scripts/null_keep.py [--keys 350] [--wrong-keys 50] [--first-key 0]
-        [--readers radial ...] [--jobs 2] [--out FILE]
+        [--readers radial ...] [--logo] [--jobs 2] [--out FILE]
 """
 
 from __future__ import annotations
@@ -30,6 +33,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from meshwm.attacks import apply_attack
 from meshwm.detect import decide
 from meshwm.mesh.io import read_mesh
+from meshwm.message.mark import default_mark
 from meshwm.watermark import Decoder, embed
 
 MESHES = Path(__file__).resolve().parents[2] / "shared" / "meshes"
@@ -51,9 +55,22 @@ def _trial(decoder: Decoder, key: str, ident: bytes) -> dict[str, Any]:
     }
 
 
-def run_mesh(task: tuple[str, int, int, tuple[str, ...] | None, int]) -> list[dict[str, Any]]:
+def _trial_logo(decoder: Decoder, key: str, ident: bytes) -> dict[str, Any]:
+    got = decoder.extract(key=key, expected=default_mark(32))
+    verdict = decide(got.report, fpr=FPR)
+    return {
+        "detected": bool(verdict.detected),
+        "valid": False,
+        "p_h": verdict.p_value * verdict.hypotheses,
+    }
+
+
+def run_mesh(
+    task: tuple[str, int, int, tuple[str, ...] | None, int, bool],
+) -> list[dict[str, Any]]:
     """Every trial on one mesh (a worker); keys and ids numbered from ``first``."""
-    name, keys, wrong, readers, first = task
+    name, keys, wrong, readers, first, logo = task
+    trial = _trial_logo if logo else _trial
     v, f = read_mesh(MESHES / f"{name}.ply")
     variants = {
         "as given": (v, f),
@@ -71,21 +88,24 @@ def run_mesh(task: tuple[str, int, int, tuple[str, ...] | None, int]) -> list[di
             rows.append({"mesh": name, "case": label, "error": f"{type(exc).__name__}: {exc}"})
             continue
         trials = [
-            _trial(decoder, _derived("key", name, label, i).hex(), _derived("id", i)[:8])
+            trial(decoder, _derived("key", name, label, i).hex(), _derived("id", i)[:8])
             for i in range(first, first + keys)
         ]
         rows.append(_summary(name, f"unmarked, {label}", trials, t0))
     t0 = time.perf_counter()
     ident = _derived("marked", name)[:8]
     try:
-        marked = embed(v, f, key=_derived("right", name).hex(), ident=ident, distances=False)
+        right = _derived("right", name).hex()
+        if logo:
+            marked = embed(v, f, default_mark(32), key=right, distances=False)
+        else:
+            marked = embed(v, f, key=right, ident=ident, distances=False)
     except Exception as exc:
         rows.append({"mesh": name, "case": "marked", "error": f"{type(exc).__name__}: {exc}"})
         return rows
     decoder = Decoder(marked.vertices, marked.faces, readers=readers)
     trials = [
-        _trial(decoder, _derived("wrong", name, j).hex(), ident)
-        for j in range(first, first + wrong)
+        trial(decoder, _derived("wrong", name, j).hex(), ident) for j in range(first, first + wrong)
     ]
     rows.append(_summary(name, "marked, wrong keys", trials, t0))
     return rows
@@ -115,6 +135,7 @@ def main() -> int:
         default=0,
         help="number keys (and wrong keys) from here: runs with disjoint ranges add up",
     )
+    parser.add_argument("--logo", action="store_true", help="the 32×32 logo instead of ids")
     parser.add_argument("--jobs", type=int, default=2)
     parser.add_argument("--out", type=Path)
     args = parser.parse_args()
@@ -122,7 +143,10 @@ def main() -> int:
     readers = tuple(args.readers) if args.readers else None
     if min(args.keys, args.wrong_keys) < 1 or args.first_key < 0:
         parser.error("--keys and --wrong-keys must be >= 1, --first-key >= 0")
-    tasks = [(name, args.keys, args.wrong_keys, readers, args.first_key) for name in args.meshes]
+    tasks = [
+        (name, args.keys, args.wrong_keys, readers, args.first_key, args.logo)
+        for name in args.meshes
+    ]
     with ProcessPoolExecutor(args.jobs) as pool:
         rows = [row for result in pool.map(run_mesh, tasks) for row in result]
     lines = [
