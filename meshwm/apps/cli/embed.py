@@ -371,8 +371,9 @@ def _mesh_line(row: dict[str, Any]) -> str:
             f", MRMS {100 * row['mrms_rel']:.4f}%, Hausdorff {100 * row['hausdorff_rel']:.3f}% "
             "of the bbox diagonal"
         )
-    if row.get("read_ber"):  # a mark accepted with a few bits wrong (at most 2 %)
+    if row.get("read_ber"):  # accepted with a few bits wrong (at most 2 %)
         text += f"; its surface map reads back {row['read_ber']:.1%} of its bits wrong"
+        text += ", which its code corrects" if "id" in row else ""
     return text
 
 

@@ -560,3 +560,22 @@ def test_embed_keeps_the_input_mesh_in_each_format(suffix, tmp_path, capsys):
     assert 0 < np.abs(vo - vi).max() < 0.01 * np.ptp(vi, axis=0).max()
     assert main(["verify", str(out), "--key", KEY, "--id", "0xC0FFEE42"]) == 0
     assert main(["verify", str(out), "--key", "not the key", "--id", "0xC0FFEE42"]) == 1
+
+
+@pytest.mark.parametrize(
+    "payload, read_ber, says",
+    [
+        ({"mark_size": 32}, 14 / 1024, "its surface map reads back 1.4% of its bits wrong"),
+        ({"id": "00000000c0ffee42"}, 3 / 256, "1.2% of its bits wrong, which its code corrects"),
+        ({"mark_size": 32}, 0.0, None),
+    ],
+)
+def test_the_embed_line_says_how_many_bits_read_back_wrong(payload, read_ber, says):
+    from meshwm.apps.cli.embed import _mesh_line
+
+    row = {"name": "mesh", "marked": True, "vertices": 9447, "n": 256, "psnr": 90.0}
+    line = _mesh_line({**row, **payload, "read_ber": read_ber})
+    if says is None:
+        assert "wrong" not in line
+    else:
+        assert line.endswith(says)
