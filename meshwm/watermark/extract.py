@@ -109,14 +109,14 @@ _ID_SLACK = 0.02
 _MARK_SLACK = 0.02
 
 
-def _clean(found: Decoded) -> bool:
-    """A read no other image could beat: every vote as strong as an unattacked read's."""
-    return float(np.mean(np.abs(found.confidence))) >= UNSMOOTH_BELOW
-
-
 def _strength(found: Decoded) -> float:
     """How strongly an image reads: its mean |confidence|."""
     return float(np.mean(np.abs(found.confidence)))
+
+
+def _clean(found: Decoded) -> bool:
+    """A read no other image could beat: every vote as strong as an unattacked read's."""
+    return _strength(found) >= UNSMOOTH_BELOW
 
 
 def _valid_id(found: Decoded) -> bool:
@@ -283,8 +283,8 @@ class Decoder:
         images with fewer slots a bit: a 32×32 logo's images at N = 128 (1.7 slots a bit)
         read noise at 0.58, and outranked kitten's marked image at N = 256 (0.49, 1.4 % of the
         bits wrong; noise there reads 0.31), so that after 16-bit quantisation or 0.1 % noise
-        the extracted logo was noise.  Scaled to a perfect read, not only less noise's, so
-        that it compares with the radial reader's (whose reads of noise score about 0):
+        the extracted logo was noise.  Scaled to a perfect read, not only shifted by noise's,
+        so that it compares with the radial reader's (whose reads of noise score about 0):
         shifted only, plane_holes' logo after 16-bit quantisation was read through the
         radial carrier at 0.43 (13.8 % of the bits wrong) rather than the surface's at 0.38
         (0.2 %).  (An id is chosen by its code, which decodes on its own image only, and
@@ -303,7 +303,8 @@ class Decoder:
         (an id's code: if it still decodes to that id; a mark: as it is), and the least bit
         error rate found.
 
-        Decoding stops at the first image that does: the embedder's check of its output.
+        Decoding stops at the first image that reads the bits exactly (or an id's code that
+        decodes to the id): the embedder's check of its output.
         """
         bits = np.asarray(bits, dtype=np.uint8)
         ident = decode_id(bits) if len(bits) == PAYLOAD_BITS else None
