@@ -143,6 +143,9 @@ def main() -> int:
     readers = tuple(args.readers) if args.readers else None
     if min(args.keys, args.wrong_keys) < 1 or args.first_key < 0:
         parser.error("--keys and --wrong-keys must be >= 1, --first-key >= 0")
+    unknown = [n for n in args.meshes if not (MESHES / f"{n}.ply").is_file()]
+    if unknown:
+        parser.error(f"no such mesh: {', '.join(unknown)} (not in {MESHES})")
     tasks = [
         (name, args.keys, args.wrong_keys, readers, args.first_key, args.logo)
         for name in args.meshes
