@@ -1,14 +1,15 @@
 """Distances between meshes, measured with MeshLab's Hausdorff filter (pymeshlab).
 
 The remeshing error of issue #2 and the mark's distortion of issue #3 are both *surface*
-distances: points sampled on one surface (its vertices, and points on its faces) are projected
-onto the other surface, in both directions.
+distances: points sampled on one surface (its vertices, points on its faces and along its
+border edges) are projected onto the other surface, in both directions.
 """
 
 from __future__ import annotations
 
 from typing import NamedTuple
 
+import igl
 import numpy as np
 import pymeshlab
 from numpy.typing import NDArray
@@ -86,7 +87,11 @@ def surface_distance(
     Notes
     -----
     MeshLab computes in single precision: relative distances below ~1e-7 of the bounding-box
-    diagonal are at its noise floor.
+    diagonal are at its noise floor.  Its face samples are random and may all miss the
+    farthest points of a surface with holes, on the border edges (a chord of a hole's rim
+    that spans the hole): the Hausdorff distance is therefore also taken over points along
+    each border edge of either mesh (:func:`_border_reach`; kitten with 35 holes and a 32×32
+    logo: MeshLab 0.130-0.161 % of the diagonal in three runs, the border 0.183 %).
     """
     ms = pymeshlab.MeshSet()
     ms.add_mesh(pymeshlab.Mesh(np.asarray(vertices_a, np.float64), np.asarray(faces_a, np.int32)))
@@ -97,13 +102,40 @@ def surface_distance(
     reach = pymeshlab.PureValue(2.0 * bounding_box_diagonal(both) + 1e-300)
     ab = ms.get_hausdorff_distance(sampledmesh=0, targetmesh=1, maxdist=reach, **options)
     ba = ms.get_hausdorff_distance(sampledmesh=1, targetmesh=0, maxdist=reach, **options)
+    rims = (
+        _border_reach(vertices_a, faces_a, vertices_b, faces_b),
+        _border_reach(vertices_b, faces_b, vertices_a, faces_a),
+    )
     return SurfaceDistance(
-        hausdorff=float(max(ab["max"], ba["max"])),
+        hausdorff=float(max(ab["max"], ba["max"], *rims)),
         rms=float(max(ab["RMS"], ba["RMS"])),
         rms_ab=float(ab["RMS"]),
         rms_ba=float(ba["RMS"]),
         diagonal=bounding_box_diagonal(vertices_a),
     )
+
+
+#: Where each border edge is sampled by :func:`_border_reach`, as fractions of its length.
+_BORDER_SAMPLES = np.arange(0, 17) / 16.0
+
+
+def _border_reach(
+    vertices: NDArray, faces: NDArray, vertices_to: NDArray, faces_to: NDArray
+) -> float:
+    """The largest distance from points along the border edges of the first mesh to the
+    surface of the second (``igl.point_mesh_squared_distance``); 0 without a border."""
+    from meshwm.mesh.edges import border_half_edges
+
+    v = np.asarray(vertices, dtype=np.float64)
+    border = border_half_edges(np.asarray(faces, dtype=np.int64))
+    if len(border) == 0 or len(faces_to) == 0:
+        return 0.0
+    t = _BORDER_SAMPLES[:, None, None]
+    points = ((1.0 - t) * v[border[:, 0]] + t * v[border[:, 1]]).reshape(-1, 3)
+    square = igl.point_mesh_squared_distance(
+        points, np.asarray(vertices_to, dtype=np.float64), np.asarray(faces_to, dtype=np.int64)
+    )[0]
+    return float(np.sqrt(square.max()))
 
 
 def psnr(reference: NDArray, marked: NDArray) -> float:

@@ -313,6 +313,60 @@ def test_vertex_distances_are_exact_on_a_mesh_of_very_uneven_edges():
         np.testing.assert_allclose(got[over], brute[over], rtol=1e-12, atol=1e-15 * diag)
 
 
+@pytest.mark.parametrize("above", [0.0, 6e-4])
+def test_border_distances_are_igls_along_the_border_edges(plane_mesh, above):
+    """Each border vertex's distance along its border edges, both ways, against igl's on the
+    whole mesh at the same points, wherever it passes ``above``; 0 off the border."""
+    import igl
+
+    from meshwm.mesh.edges import border_half_edges
+    from meshwm.watermark.keep import _BORDER_SAMPLES, _border_distances
+
+    v, f = plane_mesh
+    diag = bounding_box_diagonal(v)
+    border = border_half_edges(f)
+    t = _BORDER_SAMPLES[:, None, None]
+    rng = np.random.default_rng(5)
+    checked = 0
+    for scale in (2e-4, 1e-3):
+        d = rng.normal(size=v.shape) * scale * diag
+        brute = np.zeros(len(v))
+        for a, b in ((v + d, v), (v, v + d)):
+            points = ((1 - t) * a[border[:, 0]] + t * a[border[:, 1]]).reshape(-1, 3)
+            far = np.sqrt(igl.point_mesh_squared_distance(points, b, f)[0])
+            far = far.reshape(len(_BORDER_SAMPLES), -1).max(axis=0)
+            np.maximum.at(brute, border[:, 0], far)
+            np.maximum.at(brute, border[:, 1], far)
+        got = _border_distances(v, f, d, above=above)
+        over = brute > above * diag
+        checked += int(over.sum())
+        np.testing.assert_allclose(got[over], brute[over], rtol=1e-12, atol=1e-15 * diag)
+        assert np.all(got[~over] == 0)
+    assert checked > 100
+
+
+def test_a_rim_slid_along_its_hole_is_seen_and_clamped(slid_rim):
+    # Every vertex stays on the other surface; the rim's chords span the hole 0.2 % of the
+    # diagonal away, over the cap: a clamp that measured vertices alone left it there.
+    from _border import border_reach
+
+    from meshwm.watermark.keep import _clamp_peaks, _vertex_distances, surface_peak
+
+    v, f, slid = slid_rim
+    diag = bounding_box_diagonal(v)
+    d = slid - v
+    assert _vertex_distances(v, f, d)[0].max() < 1e-12 * diag
+    reach = max(border_reach(slid, f, v), border_reach(v, f, slid))
+    assert surface_peak(v, f, d) == pytest.approx(reach / diag, rel=1e-9)
+    assert reach > 1.5e-3 * diag
+    clamped, _ = _clamp_peaks(v, f, d)
+    assert surface_peak(v, f, clamped) <= 1.3e-3
+    # Between the samples along an edge the distance may peak higher (here 0.138 %), within
+    # the 0.15 % bound.
+    moved = v + clamped
+    assert max(border_reach(moved, f, v), border_reach(v, f, moved)) <= 1.5e-3 * diag
+
+
 @pytest.mark.slow
 def test_vertex_distances_find_a_long_face_whose_corners_are_all_far():
     """A dense patch over a plane of two large triangles, moved through it: each patch
