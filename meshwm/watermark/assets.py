@@ -44,9 +44,9 @@ __all__ = [
 #: id (256 code bits) needs 1024, the 32×32 logo 4096.  Measured with the kept-mesh marker:
 #: bumpy spheres of 162 and 642 positions never carried an id (each refusal took it 40-55 s),
 #: a quad box of 1178 and meshes from 1538 up did; the logo is refused on cow (2762) and spot
-#: (2930), carried by fandisk (6475), and kitten (9447) carries it with some keys only (its
-#: read-back 1.4 % wrong with one, 2.6 and 3.0 % with two others, over the 2 % a mark may
-#: have): the floor is necessary, not sufficient, and the marker's own refusal stays the last
+#: (2930), carried by fandisk (6475) and kitten (9447; its first read-back 1.4-3.0 % wrong
+#: by the key, reinforced where over the 2 % a mark may have), refused on camelhead (11381,
+#: 3.4 %): the floor is necessary, not sufficient, and the marker's own refusal stays the last
 #: word.
 MIN_VERTICES_PER_BIT = 4
 

@@ -408,7 +408,7 @@ def test_calibration_ends_early_from_n_512_only(n, embeddings, monkeypatch):
 
     made = []
     real = module._embed_at
-    monkeypatch.setattr(module, "_embed_at", lambda *a: made.append(1) or real(*a))
+    monkeypatch.setattr(module, "_embed_at", lambda *a, **k: made.append(1) or real(*a, **k))
     gim = _surface(n, seed=5)
     result = embed_gim_robust(gim, _bits(64, seed=6), key="k", options=RobustOptions())
     assert len(made) == embeddings
@@ -435,3 +435,44 @@ def test_warm_keeps_the_layout_the_embedding_then_uses_and_leaves_refusals_to_it
     assert _cached_layout.cache_info().currsize == 1
     with pytest.raises(CapacityError):
         PROFILE.embed(gim, np.zeros(10**6, dtype=np.uint8), key="warm-key")
+
+
+@pytest.mark.parametrize("n", [128, 512])
+def test_only_the_given_bits_slots_move(n):
+    # A weak bit reinforced: its slots move as the whole embedding moves them, at the same
+    # step; every other slot keeps its value (to the border's corrections, 0.3 % of a move).
+    from meshwm.profiles.robust.slots import _layout, _split, _values, _wavedec
+
+    gim, bits = _surface(n, seed=3), _bits(64, seed=4)
+    options = RobustOptions(tangential_step=0.05)
+    whole = embed_gim_robust(gim, bits, key="k", options=options).gim
+    weak = np.arange(64) % 5 == 0
+    some = embed_gim_robust(gim, bits, key="k", options=options, only=weak).gim
+    layout = _layout(n, "k", len(bits))
+    approx, _ = _split(_wavedec(gim))
+    frames, scale = local_frames(approx)
+
+    def values(image):
+        return _values(_split(_wavedec(image))[1], frames, scale, layout)
+
+    cover, full, partial = values(gim), values(whole), values(some)
+    moved = weak[layout.bit]
+    assert np.abs(partial - cover)[~moved].max() < 3e-3 * np.abs(full - cover).max()
+    np.testing.assert_allclose(partial[moved], full[moved], rtol=0, atol=1e-7)
+    read = extract_gim_robust(some, len(bits), key="k")
+    assert read.bits[weak].tolist() == bits[weak].tolist()
+    assert (read.bits[~weak] != bits[~weak]).mean() > 0.2  # the others were not embedded
+
+
+def test_reinforce_needs_the_embeddings_step():
+    # Reinforced at a step of its own calibration, a bit would move on another lattice.
+    from meshwm.profiles.robust.profile import PROFILE
+
+    gim, bits = _surface(64, seed=3), _bits(16, seed=4)
+    weak = np.ones(16, dtype=bool)
+    with pytest.raises(ValueError, match="tangential_step"):
+        PROFILE.reinforce(gim, bits, key="k", options=RobustOptions(), weak=weak)
+    got = PROFILE.reinforce(
+        gim, bits, key="k", options=RobustOptions(tangential_step=0.05), weak=weak
+    )
+    assert extract_gim_robust(got.marked, 16, key="k").bits.tolist() == bits.tolist()

@@ -44,7 +44,12 @@ _ROUNDS = 3
 
 
 def embed_gim_robust(
-    gim: NDArray, bits: NDArray, *, key: str | bytes, options: RobustOptions | None = None
+    gim: NDArray,
+    bits: NDArray,
+    *,
+    key: str | bytes,
+    options: RobustOptions | None = None,
+    only: NDArray | None = None,
 ) -> RobustResult:
     """Embed bits into a geometry image with the robust profile (see the module notes).
 
@@ -59,6 +64,10 @@ def embed_gim_robust(
     options : RobustOptions, optional
         ``tangential_step`` is the tangential step over the local spacing; ``None`` (the
         default) calibrates it so that :func:`normal_distortion` is ``options.distortion``.
+    only : (k,) array of bool, optional
+        Move the slots of these bits only (the others keep their values): a mark that reads
+        back a few bits wrong through a lossy carrier is reinforced where it is weak.  With a
+        given ``tangential_step`` the lattice is the same as the whole embedding's.
 
     Returns
     -------
@@ -94,7 +103,7 @@ def embed_gim_robust(
 
     def embed_at(step: float) -> NDArray[np.float64]:
         steps = _steps(approx, layout, step, guard=guard)
-        return _embed_at(gim, bits, layout, frames, scale, steps, cover)
+        return _embed_at(gim, bits, layout, frames, scale, steps, cover, only=only)
 
     if options.tangential_step is not None:
         step = options.tangential_step
@@ -165,6 +174,8 @@ def _embed_at(
     scale: NDArray[np.float64],
     step: NDArray[np.float64],
     cover: list,
+    *,
+    only: NDArray | None = None,
 ) -> NDArray[np.float64]:
     """Quantise every live slot to its bit's lattice, keeping the border samples fixed
     (``cover``: ``_wavedec(gim)``, the first round's decomposition; read only).
@@ -187,6 +198,8 @@ def _embed_at(
     """
     n = gim.shape[0]
     live = scale[layout.row, layout.col] > 0
+    if only is not None:
+        live = live & np.asarray(only, bool)[layout.bit]
     target = bits[layout.bit] / 2.0
     border_only = n >= _BORDER_ONLY_FROM
     if border_only:

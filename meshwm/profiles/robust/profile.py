@@ -39,6 +39,24 @@ class RobustProfile:
         assert res.gim is not None  # embedding always returns the marked image
         return Embedding(np.asarray(gim, dtype=np.float64), res.gim, res.report)
 
+    def reinforce(
+        self,
+        gim: NDArray[np.float64],
+        bits: NDArray[np.uint8],
+        *,
+        key: str | bytes,
+        options: RobustOptions,
+        weak: NDArray[np.bool_],
+    ) -> Embedding:
+        """Embed the bits ``weak`` only, at ``options.tangential_step``: the slots of every
+        other bit keep their values (:func:`~meshwm.profiles.robust.embed.embed_gim_robust`'s
+        ``only``)."""
+        if options.tangential_step is None:
+            raise ValueError("reinforce needs the embedding's tangential_step")
+        res = embed_gim_robust(gim, bits, key=key, options=options, only=weak)
+        assert res.gim is not None
+        return Embedding(np.asarray(gim, dtype=np.float64), res.gim, res.report)
+
     def warm(self, size: int, *, key: str | bytes, n_bits: int) -> None:
         """Make (and keep) the keyed slot layout an N = ``size`` image will use: a caller may
         run this beside other work.  A payload the size cannot carry is left for
