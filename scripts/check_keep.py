@@ -117,6 +117,15 @@ def attacks(beyond: bool) -> dict[str, Attack | None]:
     return out
 
 
+def mesh_names(parser: argparse.ArgumentParser, meshes: list[str], *, synthetic: bool) -> list[str]:
+    """The meshes asked for, then the generated ones with ``synthetic``; an unknown name is the
+    parser's one-line error (exit 2), not a worker's traceback."""
+    unknown = [n for n in meshes if n not in SYNTHETIC and not (MESHES / f"{n}.ply").is_file()]
+    if unknown:
+        parser.error(f"no such mesh: {', '.join(unknown)} (not in {MESHES} nor generated)")
+    return list(meshes) + (list(SYNTHETIC) if synthetic else [])
+
+
 def load(name: str) -> tuple[np.ndarray, np.ndarray]:
     """A dev mesh by name, or a generated one (:data:`meshwm.apps.bench.synthetic.SYNTHETIC`)."""
     if name in SYNTHETIC:
@@ -238,12 +247,7 @@ def main() -> None:
     parser.add_argument("--jobs", type=int, default=1)
     parser.add_argument("--out", type=Path)
     args = parser.parse_args()
-    names = list(args.meshes)
-    unknown = [n for n in names if n not in SYNTHETIC and not (MESHES / f"{n}.ply").is_file()]
-    if unknown:
-        parser.error(f"no such mesh: {', '.join(unknown)} (not in {MESHES} nor generated)")
-    if args.synthetic:
-        names += list(SYNTHETIC)
+    names = mesh_names(parser, args.meshes, synthetic=args.synthetic)
     t0 = time.perf_counter()
     with ProcessPoolExecutor(args.jobs) as pool:
         n = len(names)

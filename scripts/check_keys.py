@@ -27,9 +27,8 @@ from typing import Any
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from check_keep import DEV, MESHES, load
+from check_keep import DEV, load, mesh_names
 
-from meshwm.apps.bench.synthetic import SYNTHETIC
 from meshwm.errors import CapacityError
 from meshwm.message.mark import default_mark
 from meshwm.watermark import embed, verify
@@ -87,16 +86,11 @@ def main() -> None:
     parser.add_argument("--jobs", type=int, default=1)
     parser.add_argument("--out", type=Path)
     args = parser.parse_args()
-    names = list(args.meshes)
-    unknown = [n for n in names if n not in SYNTHETIC and not (MESHES / f"{n}.ply").is_file()]
-    if unknown:
-        parser.error(f"no such mesh: {', '.join(unknown)} (not in {MESHES} nor generated)")
+    names = mesh_names(parser, args.meshes, synthetic=args.synthetic)
     if not 1 <= args.keys <= 1000:
         parser.error(f"--keys must be 1..1000, got {args.keys}")
     if args.jobs < 1:
         parser.error(f"--jobs must be at least 1, got {args.jobs}")
-    if args.synthetic:
-        names += list(SYNTHETIC)
     keys = [f"check-keys-{i}" for i in range(args.keys)]
     jobs = [(name, key) for name in names for key in keys]
     t0 = time.perf_counter()
