@@ -14,6 +14,8 @@ import numpy as np
 import pymeshlab
 from numpy.typing import NDArray
 
+from meshwm.mesh.edges import border_half_edges
+
 __all__ = [
     "SurfaceDistance",
     "bit_error_rate",
@@ -124,8 +126,6 @@ def _border_reach(
 ) -> float:
     """The largest distance from points along the border edges of the first mesh to the
     surface of the second (``igl.point_mesh_squared_distance``); 0 without a border."""
-    from meshwm.mesh.edges import border_half_edges
-
     v = np.asarray(vertices, dtype=np.float64)
     border = border_half_edges(np.asarray(faces, dtype=np.int64))
     if len(border) == 0 or len(faces_to) == 0:

@@ -654,8 +654,9 @@ def _mark_at(
     ) -> NDArray[np.float64]:
         """``d`` after rounds on the bits whose vote is weak (or wrong); the round that
         read back with the fewest wrong bits (the latest of equals) is kept."""
-        # Border vertices keep their moves: a border pushed along the surface widens or
-        # narrows the hole, which the Hausdorff distance sees beyond the vertices' own.
+        # Border vertices keep their moves: pushed along the surface, a border vertex widens
+        # or narrows its hole, which the Hausdorff cap then takes back along its border edges
+        # (:func:`_border_distances`); the rounds reinforce the interior.
         inner = np.ones(len(positions))
         inner[border_half_edges(faces).ravel()] = 0.0
         best, fewest = d, np.inf
@@ -824,50 +825,46 @@ def embed_kept(
     # first size's sampling.
     with beside(_input_measures, surface.positions, surface.faces):
         first = sample_surface(surface, size=order[0])
-    for n in order:
-        image = first if n == order[0] else sample_surface(surface, size=n)
-        try:
-            attempt = _mark_at(
-                surface, image, bits, key=key, params=params, faces_in=np.asarray(faces, np.int64)
-            )
-        except CapacityError as exc:
-            tried[str(n)] = str(exc)
-            continue
+    # Read back as a blind reader will: the map re-derived from the marked mesh itself.
+    # (The input's map is a speed hint: reused only where provably the same.)
+    hints = {"surface": {"like": surface}}
+
+    def read_back(attempt: _Attempt) -> tuple[NDArray[np.float64], bool, float]:
+        """The marked vertices, whether they read back blind, and the wrong bits' share."""
         out = (surface.positions + attempt.displacement)[surface.inverse]
-        # Read back as a blind reader will: the map re-derived from the marked mesh itself.
-        # (The input's map is a speed hint: reused only where provably the same.)
-        hints = {"surface": {"like": surface}}
         decoder = Decoder(
             out, faces, params=params, max_faces=max_faces, hints=hints, readers=("surface",)
         )
-        ok, ber = decoder.reads(bits, key=key)
+        return (out, *decoder.reads(bits, key=key))
+
+    can_reinforce = hasattr(get_profile(params.profile), "reinforce")
+    for n in order:
+        image = first if n == order[0] else sample_surface(surface, size=n)
+        mark = partial(
+            _mark_at,
+            surface,
+            image,
+            bits,
+            key=key,
+            params=params,
+            faces_in=np.asarray(faces, np.int64),
+        )
+        try:
+            attempt = mark()
+        except CapacityError as exc:
+            tried[str(n)] = str(exc)
+            continue
+        out, ok, ber = read_back(attempt)
         tried[str(n)] = {"ber": ber}
-        if not ok and ber <= _REINFORCE_UP_TO and hasattr(get_profile(params.profile), "reinforce"):
+        if not ok and ber <= _REINFORCE_UP_TO and can_reinforce:
             # The weak bits reinforced, at the same size (the mark made again: the outputs of
             # meshes that read without it are the same bytes as before).
-            again = _mark_at(
-                surface,
-                image,
-                bits,
-                key=key,
-                params=params,
-                faces_in=np.asarray(faces, np.int64),
-                reinforce_weak=True,
-            )
+            again = mark(reinforce_weak=True)
             if again.report.get("reinforced"):
-                out = (surface.positions + again.displacement)[surface.inverse]
-                decoder = Decoder(
-                    out,
-                    faces,
-                    params=params,
-                    max_faces=max_faces,
-                    hints=hints,
-                    readers=("surface",),
-                )
-                ok, ber2 = decoder.reads(bits, key=key)
-                tried[str(n)]["reinforced_ber"] = ber2
-                if ok or ber2 < ber:
-                    attempt, ber = again, ber2
+                again_out, ok, again_ber = read_back(again)
+                tried[str(n)]["reinforced_ber"] = again_ber
+                if ok or again_ber < ber:
+                    attempt, out, ber = again, again_out, again_ber
         if ok:
             report = {
                 **attempt.report,
