@@ -248,6 +248,8 @@ def main() -> None:
     parser.add_argument("--out", type=Path)
     args = parser.parse_args()
     names = mesh_names(parser, args.meshes, synthetic=args.synthetic)
+    if args.out is not None and not args.out.parent.is_dir():
+        parser.error(f"--out: no such directory: {args.out.parent}")
     t0 = time.perf_counter()
     with ProcessPoolExecutor(args.jobs) as pool:
         n = len(names)

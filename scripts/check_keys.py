@@ -87,6 +87,8 @@ def main() -> None:
     parser.add_argument("--out", type=Path)
     args = parser.parse_args()
     names = mesh_names(parser, args.meshes, synthetic=args.synthetic)
+    if args.out is not None and not args.out.parent.is_dir():
+        parser.error(f"--out: no such directory: {args.out.parent}")
     if not 1 <= args.keys <= 1000:
         parser.error(f"--keys must be 1..1000, got {args.keys}")
     if args.jobs < 1:

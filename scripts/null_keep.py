@@ -146,6 +146,8 @@ def main() -> int:
     unknown = [n for n in args.meshes if not (MESHES / f"{n}.ply").is_file()]
     if unknown:
         parser.error(f"no such mesh: {', '.join(unknown)} (not in {MESHES})")
+    if args.out is not None and not args.out.parent.is_dir():
+        parser.error(f"--out: no such directory: {args.out.parent}")
     tasks = [
         (name, args.keys, args.wrong_keys, readers, args.first_key, args.logo)
         for name in args.meshes

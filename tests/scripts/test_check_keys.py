@@ -18,6 +18,7 @@ sys.path.insert(0, str(SCRIPT.parent))
         (["--meshes", "nosuch"], "no such mesh: nosuch"),
         (["--meshes", "holes35", "--keys", "0"], "--keys must be 1..1000"),
         (["--meshes", "holes35", "--jobs", "0"], "--jobs must be at least 1"),
+        (["--meshes", "holes35", "--out", "/nonexistent/keys.md"], "--out: no such directory"),
     ],
 )
 def test_bad_options_are_one_line_and_exit_2(args, message):
