@@ -117,13 +117,27 @@ def attacks(beyond: bool) -> dict[str, Attack | None]:
     return out
 
 
-def mesh_names(parser: argparse.ArgumentParser, meshes: list[str], *, synthetic: bool) -> list[str]:
-    """The meshes asked for, then the generated ones with ``synthetic``; an unknown name is the
-    parser's one-line error (exit 2), not a worker's traceback."""
+def add_run_options(parser: argparse.ArgumentParser) -> None:
+    """The options every table script here takes: the meshes, the workers and the output."""
+    parser.add_argument("--meshes", nargs="+", default=DEV)
+    parser.add_argument("--synthetic", action="store_true", help="add the generated meshes")
+    parser.add_argument("--jobs", type=int, default=1)
+    parser.add_argument("--out", type=Path)
+
+
+def run_names(parser: argparse.ArgumentParser, args: argparse.Namespace) -> list[str]:
+    """The meshes asked for, then the generated ones with ``--synthetic``.  An unknown mesh,
+    fewer than one worker or an ``--out`` in a missing directory is the parser's one-line error
+    (exit 2), not a traceback before or after the run."""
+    meshes = list(args.meshes)
     unknown = [n for n in meshes if n not in SYNTHETIC and not (MESHES / f"{n}.ply").is_file()]
     if unknown:
         parser.error(f"no such mesh: {', '.join(unknown)} (not in {MESHES} nor generated)")
-    return list(meshes) + (list(SYNTHETIC) if synthetic else [])
+    if args.jobs < 1:
+        parser.error(f"--jobs must be at least 1, got {args.jobs}")
+    if args.out is not None and not args.out.parent.is_dir():
+        parser.error(f"--out: no such directory: {args.out.parent}")
+    return meshes + (list(SYNTHETIC) if args.synthetic else [])
 
 
 def load(name: str) -> tuple[np.ndarray, np.ndarray]:
@@ -238,18 +252,13 @@ def cho_table(rows: list[dict[str, Any]], labels: list[str]) -> str:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--meshes", nargs="+", default=DEV)
-    parser.add_argument("--synthetic", action="store_true", help="add the generated meshes")
+    add_run_options(parser)
     parser.add_argument("--beyond", action="store_true", help="add the attacks to report")
     payload = parser.add_mutually_exclusive_group()  # Cho 2007 carries ids only
     payload.add_argument("--cho", action="store_true", help="compare with Cho et al. 2007")
     payload.add_argument("--logo", action="store_true", help="the 32×32 logo instead of the id")
-    parser.add_argument("--jobs", type=int, default=1)
-    parser.add_argument("--out", type=Path)
     args = parser.parse_args()
-    names = mesh_names(parser, args.meshes, synthetic=args.synthetic)
-    if args.out is not None and not args.out.parent.is_dir():
-        parser.error(f"--out: no such directory: {args.out.parent}")
+    names = run_names(parser, args)
     t0 = time.perf_counter()
     with ProcessPoolExecutor(args.jobs) as pool:
         n = len(names)

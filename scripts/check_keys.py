@@ -27,7 +27,7 @@ from typing import Any
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from check_keep import DEV, load, mesh_names
+from check_keep import add_run_options, load, run_names
 
 from meshwm.errors import CapacityError
 from meshwm.message.mark import default_mark
@@ -79,20 +79,13 @@ def _row(name: str, results: list[dict[str, Any]]) -> str:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--meshes", nargs="+", default=DEV)
-    parser.add_argument("--synthetic", action="store_true", help="add the generated meshes")
+    add_run_options(parser)
     parser.add_argument("--logo", action="store_true", help="the 32×32 logo instead of an id")
     parser.add_argument("--keys", type=int, default=6, help="keys per mesh (6)")
-    parser.add_argument("--jobs", type=int, default=1)
-    parser.add_argument("--out", type=Path)
     args = parser.parse_args()
-    names = mesh_names(parser, args.meshes, synthetic=args.synthetic)
-    if args.out is not None and not args.out.parent.is_dir():
-        parser.error(f"--out: no such directory: {args.out.parent}")
+    names = run_names(parser, args)
     if not 1 <= args.keys <= 1000:
         parser.error(f"--keys must be 1..1000, got {args.keys}")
-    if args.jobs < 1:
-        parser.error(f"--jobs must be at least 1, got {args.jobs}")
     keys = [f"check-keys-{i}" for i in range(args.keys)]
     jobs = [(name, key) for name in names for key in keys]
     t0 = time.perf_counter()
