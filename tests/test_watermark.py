@@ -362,8 +362,8 @@ def test_mesh_mark_survives_quantisation_that_merges_vertices(marked_spot):
 
 
 def test_non_manifold_mesh_without_grid_is_no_grid_not_a_mesh_error():
-    """A mesh clean_mesh refuses (an edge of three faces) holds no grid: GridError, so that
-    verify answers "absent" rather than failing."""
+    """Three triangles on one edge (which the cleaning opens into single triangles) hold no
+    grid: GridError, so that verify answers "absent" rather than failing."""
     v = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1]], dtype=float)
     f = np.array([[0, 1, 2], [1, 0, 3], [0, 1, 4]])
     with pytest.raises(GridError):

@@ -13,7 +13,10 @@ the mesh usable *without* moving a single vertex:
    more than two faces that is a *pinch* (an even number of faces, half running each way, as two
    sheets of ``cow.ply`` touching along an edge become once its twin vertices are merged) is
    resolved by pairing the faces in radial order around the edge, so the sheets separate again;
-   any other non-manifold edge (a fan of three faces) is refused: the user is told to repair it;
+   any other non-manifold edge (a fin standing on a surface, a wall inside a box, a fan of
+   three faces) is opened: the most faces that can be paired so are, faces of one sheet first,
+   then the flattest pairs, and each face left over gets the edge as a border of its own (the
+   fin comes off whole; nothing moves, no face is dropped);
 5. split non-manifold vertices (two fans of faces touching in one vertex) into one vertex per
    fan: this changes no position and no face;
 6. orient every component consistently (breadth-first over faces); the orientation kept is the
@@ -238,8 +241,8 @@ def clean_mesh(
     Raises
     ------
     MeshError
-        Bad arrays (see :func:`meshwm._validate.check_mesh`), non-manifold edges, a
-        non-orientable surface, or nothing left after dropping degenerate faces.
+        Bad arrays (see :func:`meshwm._validate.check_mesh`), a non-orientable surface, or
+        nothing left after dropping degenerate faces.
 
     Notes
     -----

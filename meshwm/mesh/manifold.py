@@ -29,16 +29,19 @@ def _radial_pairs(
     """Candidate pairings of the faces around an edge of more than two faces, or None.
 
     The faces are sorted by angle around the edge and paired without crossing, each face with
-    one running the edge the other way.  There are at most two such matchings (pairing across
-    the wedges inside the surface, or across those outside); both are returned, and the caller
-    keeps the one that pairs faces of the same sheet.  This is how two closed sheets that touch
-    along an edge (a pinch) separate again.  Anything else (an odd number of faces, a fan) has
-    no manifold reading: None.
+    one running the edge the other way.  Where every face can be paired there are at most two
+    such matchings (pairing across the wedges inside the surface, or across those outside);
+    both are returned, and the caller keeps the one that pairs faces of the same sheet.  This
+    is how two closed sheets that touch along an edge (a pinch) separate again.  Where not (an
+    odd number of faces: a fin on a surface, a fan of three; or more faces running one way),
+    the largest non-crossing matchings are returned, and the faces a matching leaves out get
+    the edge as a border of their own: the fin comes off the surface it stands on, which keeps
+    its two faces glued.  None for an edge of zero length.
     """
     a, b = int(edge[0]), int(edge[1])
     e = vertices[b] - vertices[a]
     norm = np.linalg.norm(e)
-    if len(corner_edges) % 2 or norm == 0:
+    if norm == 0:
         return None
     e = e / norm
     helper = np.eye(3)[int(np.argmin(np.abs(e)))]
@@ -53,9 +56,9 @@ def _radial_pairs(
     theta = np.arctan2(r @ w, r @ u)
     order = np.lexsort((fidx, theta))
     d = forward[order]
-    if d.sum() * 2 != len(d):
-        return None
     n = len(order)
+    if d.sum() * 2 != n:
+        return _partial_pairs(d, corner_edges[order])
     # A non-crossing matching of opposite runs around the circle is a bracket matching; there
     # are at most two families (brackets opening on backward or on forward faces).
     candidates = []
@@ -76,7 +79,46 @@ def _radial_pairs(
             if len(pairs) * 2 == n:
                 candidates.append(pairs)
                 break
-    return candidates or None
+    return candidates or _partial_pairs(d, corner_edges[order])
+
+
+def _partial_pairs(
+    forward: NDArray[np.bool_], corner_edges: NDArray[np.int64]
+) -> list[list[tuple[int, int]]]:
+    """The largest non-crossing matchings of opposite runs around an edge (faces in radial
+    order, ``forward`` their direction), each found once, in the order first found."""
+    n = len(forward)
+    found: list[list[tuple[int, int]]] = []
+    seen: set[frozenset[tuple[int, int]]] = set()
+    for opener in (False, True):
+        for offset in range(n):
+            stack: list[int] = []
+            pairs = []
+            for step in range(n):
+                i = (offset + step) % n
+                if forward[i] == opener:
+                    stack.append(i)
+                elif stack:  # a closer with no opener left stays out
+                    pairs.append((int(corner_edges[stack.pop()]), int(corner_edges[i])))
+            key = frozenset(pairs)
+            if key not in seen:
+                seen.add(key)
+                found.append(pairs)
+    most = max(len(p) for p in found)
+    return [p for p in found if len(p) == most]
+
+
+def _opening(vertices: NDArray[np.float64], faces: NDArray[np.int64], p: int, q: int) -> float:
+    """The angle between two faces around the edge they share (corner-edges ``p`` and ``q``):
+    pi where they continue each other flat, 0 where they fold onto each other."""
+    edge = vertices[faces.reshape(-1)[_head(np.array([p]))[0]]] - vertices[faces.flat[p]]
+    edge = edge / np.linalg.norm(edge)
+    out = []
+    for c in (p, q):
+        r = vertices[faces[c // 3, (c % 3 + 2) % 3]] - vertices[faces.flat[p]]
+        r = r - (r @ edge) * edge
+        out.append(r / max(float(np.linalg.norm(r)), 1e-300))
+    return float(np.arccos(np.clip(out[0] @ out[1], -1.0, 1.0)))
 
 
 def _head(corner_edge: NDArray[np.int64]) -> NDArray[np.int64]:
@@ -140,17 +182,18 @@ def _one_fan_each(
 
 def _rebuild_connectivity(
     vertices: NDArray[np.float64], faces: NDArray[np.int64], order: NDArray[np.int64]
-) -> tuple[NDArray[np.int64], NDArray[np.int64], int, int]:
+) -> tuple[NDArray[np.int64], NDArray[np.int64], int, int, int]:
     """Give each fan of faces around a vertex its own copy of the vertex.
 
     Face corners at the same vertex are joined when their faces are glued along an edge through
     that vertex.  An edge of two faces glues them; an edge of more faces is resolved by
-    :func:`_radial_pairs` or refused.  Each connected group of corners becomes one vertex (the
-    group holding a vertex's first corner keeps its index; positions are copied).
+    :func:`_radial_pairs` (faces it leaves unpaired get the edge as a border) or refused.  Each
+    connected group of corners becomes one vertex (the group holding a vertex's first corner
+    keeps its index; positions are copied).
 
     ``order`` is :func:`corner_edges_by_edge` of ``faces``.  Returns the source of each
     output vertex (``vertices[source]`` are the output's positions), the faces, the number of
-    vertices added and of edges resolved radially.
+    vertices added, of edges resolved radially and of faces detached along them.
     """
     m = len(faces)
     edges, inverse = unique_edges(faces)
@@ -159,7 +202,7 @@ def _rebuild_connectivity(
     two = count[sorted_edge[:-1]] == 2
     same = (sorted_edge[1:] == sorted_edge[:-1]) & two
     first, second = order[:-1][same], order[1:][same]
-    resolved = 0
+    resolved = detached = 0
     heavy = np.flatnonzero(count > 2)
     if len(heavy):
         # Sheets glued along ordinary edges only: a pair of faces of the same sheet shares a
@@ -169,35 +212,47 @@ def _rebuild_connectivity(
         starts = np.searchsorted(sorted_edge, heavy)
         extra1, extra2 = [], []
         for edge_id, s in zip(heavy.tolist(), starts.tolist(), strict=True):
-            a = int(edges[edge_id][0])
+            a, b = (int(x) for x in edges[edge_id])
             options = _radial_pairs(vertices, faces, edges[edge_id], order[s : s + count[edge_id]])
             if options is None:
                 raise MeshError(
                     f"mesh has {len(heavy)} non-manifold edges (shared by more than two faces, "
-                    f"first between vertices {a} and {edges[edge_id][1]}); "
+                    f"first between vertices {a} and {b}); "
                     "repair it first, e.g. MeshLab 'Repair non Manifold Edges'"
                 )
 
-            def corner_at_a(corner_edge: int, a: int = a) -> int:
+            def corner_at(corner_edge: int, end: int) -> int:
                 base = 3 * (corner_edge // 3)
-                return base + int(np.flatnonzero(flat[base : base + 3] == a)[0])
+                return base + int(np.flatnonzero(flat[base : base + 3] == end)[0])
 
+            def one_sheet(p: int, q: int, a: int = a, b: int = b) -> int:
+                """At how many of the edge's ends the two faces are of one sheet."""
+                return sum(pre[corner_at(p, e)] == pre[corner_at(q, e)] for e in (a, b))
+
+            # Pairs within one sheet first (seen at either end: at an end where another such
+            # edge passes, the sheet is cut in two); between equals (a wall standing on a
+            # surface meets it along edges no sheet crosses), the flattest pairs.
             score = [
-                sum(pre[corner_at_a(p)] == pre[corner_at_a(q)] for p, q in pairs)
+                (
+                    sum(one_sheet(p, q) for p, q in pairs),
+                    sum(_opening(vertices, faces, p, q) for p, q in pairs),
+                )
                 for pairs in options
             ]
-            for p, q in options[int(np.argmax(score))]:
+            chosen = options[max(range(len(options)), key=score.__getitem__)]
+            for p, q in chosen:
                 extra1.append(p)
                 extra2.append(q)
             resolved += 1
+            detached += int(count[edge_id]) - 2 * len(chosen)
         first = np.concatenate([first, np.asarray(extra1, dtype=np.int64)])
         second = np.concatenate([second, np.asarray(extra2, dtype=np.int64)])
     if not len(heavy) and _one_fan_each(faces, first, second, len(vertices)):
-        return np.arange(len(vertices)), faces, 0, resolved
+        return np.arange(len(vertices)), faces, 0, resolved, detached
     n_groups, labels = _corner_labels(faces, first, second)
     flat = faces.reshape(-1)
     if n_groups == len(vertices):
-        return np.arange(len(vertices)), faces, 0, resolved
+        return np.arange(len(vertices)), faces, 0, resolved, detached
     group_vertex = np.zeros(n_groups, dtype=np.int64)
     group_vertex[labels] = flat
     group_first = np.full(n_groups, 3 * m, dtype=np.int64)
@@ -211,7 +266,7 @@ def _rebuild_connectivity(
     extra = order_g[~is_first]
     new_id[extra] = len(vertices) + np.arange(len(extra))
     source = np.concatenate([np.arange(len(vertices)), group_vertex[extra]])
-    return source, new_id[labels].reshape(-1, 3), len(extra), resolved
+    return source, new_id[labels].reshape(-1, 3), len(extra), resolved, detached
 
 
 def _inconsistent_edges(faces: NDArray[np.int64], order: NDArray[np.int64] | None = None) -> int:
@@ -301,12 +356,13 @@ def structure(
     if kept is not None:
         return kept
     order = corner_edges_by_edge(faces)  # 1.3 s at 5M vertices: found once, used twice
-    source, f, split, resolved = _rebuild_connectivity(vertices, faces, order)
+    source, f, split, resolved, detached = _rebuild_connectivity(vertices, faces, order)
     labels = face_components(len(source), f)
     f, flipped = _orient(f, labels, order if f is faces else None)
     counts = {
         "vertices_split_nonmanifold": split,
         "edges_unpinched": resolved,
+        "faces_detached": detached,
         "faces_reoriented": flipped,
     }
     found = (source, f, labels, counts)

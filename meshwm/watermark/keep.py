@@ -906,5 +906,6 @@ def _clean_counts(surface: Surface) -> dict[str, Any]:
     return {
         "components": int(rep.get("components", 1)),
         "components_passed_through": int(rep.get("components_passed_through", 0)),
+        "faces_detached": int(rep.get("faces_detached", 0)),
         "marked_positions": int(surface.used.sum()),
     }

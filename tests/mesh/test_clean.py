@@ -25,6 +25,7 @@ from meshwm.mesh.clean import (
     unique_edges,
 )
 from meshwm.mesh.io import read_mesh
+from meshwm.mesh.manifold import structure
 
 ASSETS = Path(__file__).parent.parent.parent / "assets"
 COW = DEV / "cow.ply"
@@ -41,6 +42,7 @@ CHANGE_KEYS = (
     "vertices_unreferenced",
     "vertices_split_nonmanifold",
     "edges_unpinched",
+    "faces_detached",
     "faces_reoriented",
     "components_passed_through",
 )
@@ -360,17 +362,116 @@ FAN_V = np.array(
 
 
 @pytest.mark.parametrize(
-    ("vertices", "faces"),
+    ("vertices", "faces", "detached", "largest"),
     [
-        (FAN_V, np.array([[0, 1, 2], [0, 1, 3], [1, 0, 4]])),
-        (FAN_V, np.array([[0, 1, 2], [0, 1, 3], [0, 1, 4], [0, 1, 5]])),
-        (np.vstack([TETRA_V, [[-1, -1, 0.5]]]), np.vstack([TETRA_F, [[0, 1, 4]]])),
+        (FAN_V, np.array([[0, 1, 2], [0, 1, 3], [1, 0, 4]]), 1, 2),
+        (FAN_V, np.array([[0, 1, 2], [0, 1, 3], [0, 1, 4], [0, 1, 5]]), 4, 1),
+        (np.vstack([TETRA_V, [[-1, -1, 0.5]]]), np.vstack([TETRA_F, [[0, 1, 4]]]), 1, 4),
     ],
     ids=["fan_of_3", "fan_of_4_same_direction", "tetra_with_fin"],
 )
-def test_non_manifold_edge_is_refused(vertices: np.ndarray, faces: np.ndarray) -> None:
-    with pytest.raises(MeshError, match=r"^mesh has 1 non-manifold edges .*repair it first"):
-        clean_mesh(vertices, faces, min_faces=1)
+def test_non_manifold_edge_is_opened_for_the_faces_left_unpaired(
+    vertices: np.ndarray, faces: np.ndarray, detached: int, largest: int
+) -> None:
+    result = clean_mesh(vertices, faces, min_faces=1)
+    assert result.report["edges_unpinched"] == 1
+    assert result.report["faces_detached"] == detached
+    assert len(result.faces) == largest
+    for f in (result.faces, result.other_faces):
+        assert edge_topology_counts(f)[2] == 0  # every part edge-manifold
+    # Nothing moved: each kept vertex copies an input vertex bit for bit.
+    assert_array_equal(result.vertices, vertices[result.source], strict=True)
+
+
+def test_tetra_with_fin_keeps_the_tetra_closed() -> None:
+    vertices = np.vstack([TETRA_V, [[-1, -1, 0.5]]])
+    result = clean_mesh(vertices, np.vstack([TETRA_F, [[0, 1, 4]]]), min_faces=1)
+    assert edge_topology_counts(result.faces) == (6, 0, 0)
+    assert len(result.other_faces) == 1 and result.report["components_passed_through"] == 1
+
+
+def walled_box(cells: int = 1) -> tuple[np.ndarray, np.ndarray]:
+    """Two unit cubes side by side whose shared square is kept once: a closed box of 2 x 1 x 1
+    with a wall inside, standing on its sides along edges of three faces each.  Each cube face
+    is a ``cells`` x ``cells`` grid of split squares (exact coordinates)."""
+    t = np.linspace(0.0, 1.0, cells + 1)
+    quads, corners = [], {}
+
+    def vid(p: tuple[float, float, float]) -> int:
+        return corners.setdefault(p, len(corners))
+
+    for x0 in (0.0, 1.0):
+        for axis in range(3):
+            for side in (0.0, 1.0):
+                if axis == 0 and x0 == 1.0 and side == 0.0:
+                    continue  # the shared square, kept once (the first cube's)
+                u, w = [a for a in range(3) if a != axis]
+                for i in range(cells):
+                    for j in range(cells):
+                        quad = []
+                        for di, dj in ((0, 0), (1, 0), (1, 1), (0, 1)):
+                            p = [0.0, 0.0, 0.0]
+                            p[axis], p[u], p[w] = side, t[i + di], t[j + dj]
+                            p[0] += x0
+                            quad.append(vid((p[0], p[1], p[2])))
+                        quads.append(quad[::-1] if side == 0.0 else quad)
+    q = np.asarray(quads)
+    faces = np.concatenate([q[:, [0, 1, 2]], q[:, [0, 2, 3]]])
+    return np.array(list(corners), dtype=np.float64), faces
+
+
+def test_walled_box_keeps_its_outer_sheet() -> None:
+    vertices, faces = walled_box(2)
+    result = clean_mesh(vertices, faces, min_faces=1)
+    # The box (area 10) is the largest part and closed; the wall comes off it, whole.
+    assert edge_topology_counts(result.faces)[1:] == (0, 0)
+    assert euler_characteristic(len(result.vertices), result.faces) == 2
+    assert len(result.other_faces) == 8 and result.report["faces_detached"] == 8
+    assert np.all(np.isclose(result.other_vertices[:, 0], 1.0))
+
+
+def _finned_spot() -> tuple[np.ndarray, np.ndarray]:
+    """spot with 12 fins: triangles standing on far-apart edges, half each way round."""
+    vertices, faces = load_asset("spot")
+    edges, _ = unique_edges(faces)
+    pick = edges[:: len(edges) // 12][:12]
+    tips = vertices[pick].mean(axis=1) + np.array([0.0, 0.05, 0.0])
+    fins = np.stack([pick[:, 0], pick[:, 1], len(vertices) + np.arange(12)], axis=1)
+    fins[::2, :2] = fins[::2, 1::-1]
+    return np.vstack([vertices, tips]), np.vstack([faces, fins])
+
+
+def _corner_groups(vertices: np.ndarray, faces: np.ndarray, vperm, fperm) -> tuple:
+    """Which input corners the cleaning joins, and each input face's part, in the numbering
+    of the mesh before ``vperm`` / ``fperm`` renumbered it (numbered by first appearance)."""
+    source, out, labels, _ = structure(vertices, faces)
+    keys = {}
+    for k in range(len(faces)):
+        for g in out[k]:
+            keys[(int(fperm[k]), int(vperm[source[g]]))] = int(g)
+    groups: dict[int, int] = {}
+    corner = [groups.setdefault(keys[c], len(groups)) for c in sorted(keys)]
+    parts: dict[int, int] = {}
+    face_part = np.empty(len(faces), dtype=np.int64)
+    face_part[fperm] = labels
+    return corner, [parts.setdefault(int(x), len(parts)) for x in face_part]
+
+
+@pytest.mark.parametrize("make", [lambda: walled_box(3), _finned_spot], ids=["wall", "fins"])
+def test_opened_edges_are_the_same_under_random_similarities_and_renumbering(make) -> None:
+    vertices, faces = make()
+    n, m = len(vertices), len(faces)
+    expected = _corner_groups(vertices, faces, np.arange(n), np.arange(m))
+    rng = np.random.default_rng(20)
+    for _ in range(20):
+        rotation, _ = np.linalg.qr(rng.normal(size=(3, 3)))
+        rotation *= np.sign(np.linalg.det(rotation))
+        moved = vertices @ rotation.T * 10 ** rng.uniform(-2, 2) + rng.uniform(-100, 100, 3)
+        vperm, fperm = rng.permutation(n), rng.permutation(m)  # new index -> old index
+        inverse = np.empty(n, dtype=np.int64)
+        inverse[vperm] = np.arange(n)
+        got = _corner_groups(moved[vperm], inverse[faces[fperm]], vperm, fperm)
+        assert got == expected
 
 
 def test_mobius_strip_is_refused() -> None:

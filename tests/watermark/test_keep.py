@@ -223,6 +223,49 @@ def test_a_surface_with_many_holes_is_marked_and_read(plane_mesh):
     assert Decoder(marked.vertices, f).extract_id(key=KEY).id == IDENT.hex()
 
 
+@pytest.fixture(scope="module")
+def finned_spot(spot_mesh):
+    """spot with 12 fins (triangles standing on far-apart edges, half each way round: edges of
+    three faces), marked."""
+    v, f = spot_mesh
+    edges = np.unique(np.sort(f[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1), axis=0)
+    pick = edges[:: len(edges) // 12][:12]
+    fins = np.stack([pick[:, 0], pick[:, 1], len(v) + np.arange(12)], axis=1)
+    fins[::2, :2] = fins[::2, 1::-1]
+    v = np.vstack([v, v[pick].mean(axis=1) + np.array([0.0, 0.05, 0.0])])
+    f = np.vstack([f, fins])
+    return v, f, embed(v, f, key=KEY, ident=IDENT)
+
+
+def test_a_mesh_with_fins_is_marked_whole(finned_spot):
+    v, f, marked = finned_spot
+    np.testing.assert_array_equal(marked.faces, f)
+    assert marked.vertices.shape == v.shape
+    assert marked.report["faces_detached"] == 12 and marked.report["components"] == 13
+    # The fins come off the surface (passed through its map); the radial carrier moves them.
+    assert np.abs(marked.vertices[-12:] - v[-12:]).max() < 2e-3
+    assert marked.report["mrms_rel"] <= 2e-4 and marked.report["hausdorff_rel"] <= 1.5e-3
+    alone = Decoder(marked.vertices, f, readers=("surface",)).extract_id(key=KEY)
+    assert alone.id == IDENT.hex()
+    assert not verify(marked.vertices, f, key="another key", ident=IDENT).detected
+
+
+@pytest.mark.parametrize(
+    ("attack", "options"),
+    [
+        ("similarity", {}),
+        ("reorder", {}),
+        ("weld_stl", {}),
+        ("meshlab_laplacian", {"iterations": 3}),
+        ("flip_edges", {"count": 100}),
+    ],
+)
+def test_a_mesh_with_fins_reads_after(finned_spot, attack, options):
+    _, f, marked = finned_spot
+    av, af = apply_attack(attack, marked.vertices, f, seed=4, **options)
+    assert Decoder(av, af).extract_id(key=KEY).id == IDENT.hex()
+
+
 def test_surface_peak_is_the_two_sided_vertex_distance(spot_mesh):
     import igl
 
