@@ -59,6 +59,19 @@ def _unsmoothed(positions: NDArray[np.float64], faces: NDArray[np.int64]) -> Uns
     return found
 
 
+def _smoothed_faces(surface: Surface, faces: NDArray[np.int64]) -> NDArray[np.int64]:
+    """The faces a smoothing of the received mesh ran over near the surface, on its positions:
+    every received face that touches the surface (a fin standing on it, which the cleaning
+    takes off, still pulled its edge's two vertices along its border), but those that use a
+    position twice; other components' faces, which no step couples to it, are left out."""
+    if faces.shape[1] != 3:
+        return surface.faces
+    over = surface.inverse[faces]
+    keep = (over[:, 0] != over[:, 1]) & (over[:, 1] != over[:, 2]) & (over[:, 0] != over[:, 2])
+    keep &= surface.used[over].any(axis=1)
+    return over[keep]
+
+
 def _undone(found: Unsmoothed, image: SurfaceImage) -> Unsmoothed:
     """The image of each of :func:`_unsmoothed`'s position sets."""
     out: Unsmoothed = []
@@ -150,7 +163,7 @@ def read_surface(
     def positions_undone(surface: Surface) -> Unsmoothed:
         key = (id(surface.positions), id(surface.faces))
         if key not in undone:  # the surface is kept with it, so the ids stay its own
-            undone[key] = (surface, _unsmoothed(surface.positions, surface.faces))
+            undone[key] = (surface, _unsmoothed(surface.positions, _smoothed_faces(surface, f)))
         return undone[key][1]
 
     def make(k: int) -> SampledImage:

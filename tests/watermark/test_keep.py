@@ -257,6 +257,7 @@ def test_a_mesh_with_fins_is_marked_whole(finned_spot):
         ("reorder", {}),
         ("weld_stl", {}),
         ("meshlab_laplacian", {"iterations": 3}),
+        ("laplacian", {"lam": 0.1, "iterations": 30}),  # undone over the fins too
         ("flip_edges", {"count": 100}),
     ],
 )
