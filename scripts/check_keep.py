@@ -111,6 +111,13 @@ def attacks(beyond: bool) -> dict[str, Attack | None]:
                 "Laplacian ×30 (λ 0.1)": _registered("laplacian", lam=0.1, iterations=30),
                 "crop 10 %": _registered("crop", fraction=0.1),
                 "1,000 flips": _registered("flip_edges", count=1000),
+                "mirrored (handedness)": _registered("mirror"),
+                "mirrored + quantize 16 bits": lambda v, f: _registered("quantize", bits=16)(
+                    *_registered("mirror")(v, f)
+                ),
+                "mirrored + noise 0.1 %": lambda v, f: _registered("noise", amplitude=0.001)(
+                    *_registered("mirror")(v, f)
+                ),
                 "simplify 50 %": _registered("simplify", keep_fraction=0.5),
             }
         )

@@ -19,6 +19,7 @@ SPOT = Path(__file__).parent.parent / "assets" / "spot.ply"
 
 RANDOM = [
     "similarity",
+    "mirror",
     "rotation",
     "translation",
     "reorder",

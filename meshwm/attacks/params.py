@@ -145,6 +145,7 @@ ATTACK_PARAMS: dict[str, tuple[AttackParam, ...]] = {
         ),
     ),
     "rotation": (),
+    "mirror": (),
     "translation": (
         AttackParam(
             "distance",

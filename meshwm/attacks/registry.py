@@ -29,6 +29,7 @@ _SEAMS = "meshwm.attacks.seams"
 _MODULES: dict[str, str] = {
     "similarity": _TRANSFORMS,
     "rotation": _TRANSFORMS,
+    "mirror": _TRANSFORMS,
     "translation": _TRANSFORMS,
     "scaling": _TRANSFORMS,
     "reorder": _TRANSFORMS,

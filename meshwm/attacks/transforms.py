@@ -22,6 +22,7 @@ from meshwm.mesh.io import read_mesh, write_mesh
 __all__ = [
     "crop",
     "float32",
+    "mirror",
     "noise",
     "quantize",
     "reorder",
@@ -54,6 +55,24 @@ def similarity(
     diag = float(np.linalg.norm(v.max(axis=0) - v.min(axis=0)))
     t = rng.uniform(-10, 10, size=3) * diag
     return s * (v @ _random_rotation(rng).T) + t, np.asarray(faces, dtype=np.int64)
+
+
+def mirror(vertices: NDArray, faces: NDArray, *, seed: int = 0) -> Mesh:
+    """A change of handedness: one axis negated (chosen by ``seed``), the faces turned over so
+    that they face out again (what an engine's import of an asset from a right-handed tool
+    does), then a random similarity as :func:`similarity`'s.
+
+    Examples
+    --------
+    >>> v = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+    >>> v2, f2 = mirror(v, [[0, 1, 2]], seed=1)
+    >>> f2.tolist()
+    [[2, 1, 0]]
+    """
+    flip = np.ones(3)
+    flip[seed % 3] = -1.0
+    v = np.asarray(vertices, dtype=np.float64) * flip
+    return similarity(v, np.asarray(faces, dtype=np.int64)[:, ::-1].copy(), seed=seed)
 
 
 def rotation(vertices: NDArray, faces: NDArray, *, seed: int = 0) -> Mesh:

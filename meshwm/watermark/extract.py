@@ -153,6 +153,9 @@ class Decoder:
         (:func:`meshwm.readers.read_all`).
     readers : sequence of str, optional
         Only these readers (names of :data:`meshwm.readers.READERS`); default all.
+    mirror : bool, optional
+        Whether the readers of :data:`meshwm.readers.MIRRORED` also read the mesh's mirror
+        image (default; a change of handedness mirrors a mesh).
 
     Raises
     ------
@@ -181,8 +184,11 @@ class Decoder:
         max_faces: int = DEFAULT_MAX_FACES,
         hints: Mapping[str, Mapping[str, Any]] | None = None,
         readers: Sequence[str] | None = None,
+        mirror: bool = True,
     ) -> None:
-        images = read_all(vertices, faces, max_faces=max_faces, hints=hints, readers=readers)
+        images = read_all(
+            vertices, faces, max_faces=max_faces, hints=hints, readers=readers, mirror=mirror
+        )
         params = params or WatermarkParams()
         if images[0].n != params.size:
             params = dataclasses.replace(params, size=images[0].n)

@@ -833,7 +833,13 @@ def embed_kept(
         """The marked vertices, whether they read back blind, and the wrong bits' share."""
         out = (surface.positions + attempt.displacement)[surface.inverse]
         decoder = Decoder(
-            out, faces, params=params, max_faces=max_faces, hints=hints, readers=("surface",)
+            out,
+            faces,
+            params=params,
+            max_faces=max_faces,
+            hints=hints,
+            readers=("surface",),
+            mirror=False,
         )
         return (out, *decoder.reads(bits, key=key))
 

@@ -106,7 +106,7 @@ def test_registry_names_its_functions():
     assert ATTACKS["similarity"] is similarity
     assert set(ATTACKS) == {
         *("similarity", "rotation", "translation", "scaling", "reorder", "noise", "float32"),
-        "round_trip",
+        *("mirror", "round_trip"),
         *("laplacian", "meshlab_laplacian", "taubin", "quantize", "crop", "simplify"),
         *("subdivide_midpoint", "subdivide_loop", "remesh_isotropic", "poisson"),
         *("flip_edges", "retriangulate", "split_seams", "merge_load", "weld_stl"),

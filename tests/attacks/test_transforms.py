@@ -21,6 +21,7 @@ from meshwm.attacks.transforms import (
     _random_rotation,
     crop,
     float32,
+    mirror,
     noise,
     quantize,
     reorder,
@@ -58,6 +59,21 @@ def test_similarity_scales_every_edge_by_scale(mesh, scale):
     # A rotation, not a reflection: the enclosed volume keeps its sign.
     assert_allclose(_signed_volume(v2, f), scale**3 * _signed_volume(v, f), rtol=1e-9)
     assert not np.allclose(v2, scale * v)  # it also rotated and moved the model
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_mirror_is_a_reflection_with_the_faces_turned_over(mesh, seed):
+    v, f = mesh
+    v2, f2 = mirror(v, f, seed=seed)
+    assert_array_equal(f2, f[:, ::-1])
+    ratio = _edge_lengths(v2, f) / _edge_lengths(v, f)
+    assert_allclose(ratio, ratio[0], rtol=1e-9)
+    # Reflected (the volume of the faces as they were turns negative), facing out again.
+    assert _signed_volume(v2, f) * _signed_volume(v, f) < 0
+    assert_allclose(_signed_volume(v2, f2), ratio[0] ** 3 * _signed_volume(v, f), rtol=1e-9)
+    flip = np.ones(3)
+    flip[seed % 3] = -1.0
+    assert_allclose(v2, similarity(v * flip, f, seed=seed)[0], rtol=1e-12)
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2, 3])

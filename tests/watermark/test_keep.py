@@ -77,6 +77,54 @@ def test_the_id_survives(kitten_marked, attack, options):
     assert Decoder(av, af).extract_id(key=KEY).id == IDENT.hex()
 
 
+def _mirrored(vertices: np.ndarray, faces: np.ndarray, seed: int) -> tuple:
+    """A change of handedness in a random pose: one axis negated, the faces turned over (to
+    face out again), then a random rotation, scale and shift."""
+    rng = np.random.default_rng(seed)
+    flip = np.ones(3)
+    flip[seed % 3] = -1.0
+    q, _ = np.linalg.qr(rng.normal(size=(3, 3)))
+    q *= np.sign(np.linalg.det(q))
+    moved = (vertices * flip) @ q.T * 10.0 ** rng.uniform(-2, 2) + rng.uniform(-100, 100, 3)
+    return moved, faces[:, ::-1].copy()
+
+
+@pytest.mark.parametrize(
+    ("attack", "options"),
+    [
+        (None, {}),
+        ("float32", {}),
+        ("quantize", {"bits": 16}),
+        ("flip_edges", {"count": 100}),
+        ("weld_stl", {}),
+        ("reorder", {}),
+    ],
+)
+def test_a_mirrored_copy_reads_through_the_radial_readers_mirror_image(
+    kitten_marked, attack, options
+):
+    _, f, marked = kitten_marked
+    seed = 7 + len(options) + (len(attack) if attack else 0)
+    mv, mf = _mirrored(marked.vertices, f, seed)
+    if attack is not None:
+        mv, mf = apply_attack(attack, mv, mf, seed=seed, **options)
+    got = Decoder(mv, mf).extract_id(key=KEY)
+    assert got.id == IDENT.hex() and got.report["reader"] == "radial (mirrored)"
+    # Without the mirror image no reader finds it: the pose sees the mark's mirror image.
+    assert Decoder(mv, mf, mirror=False).extract_id(key=KEY).id != IDENT.hex()
+
+
+def test_the_mirror_image_is_counted_and_detects_nothing_unmarked(kitten_mesh, kitten_marked):
+    _, f, marked = kitten_marked
+    mv, mf = _mirrored(marked.vertices, f, 3)
+    both, plain = Decoder(mv, mf), Decoder(mv, mf, mirror=False)
+    assert both.hypotheses > plain.hypotheses
+    assert verify(mv, mf, key=KEY, ident=IDENT).detected
+    assert not verify(mv, mf, key="another key", ident=IDENT).detected
+    uv, uf = _mirrored(*kitten_mesh, 4)
+    assert not verify(uv, uf, key=KEY, ident=IDENT).detected
+
+
 def test_the_image_is_the_same_under_random_similarities(kitten_mesh):
     v, f = kitten_mesh
     base = sample_surface(surface_of(v, f), size=128).samples
