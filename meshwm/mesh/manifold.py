@@ -61,25 +61,39 @@ def _radial_pairs(
         return _partial_pairs(d, corner_edges[order])
     # A non-crossing matching of opposite runs around the circle is a bracket matching; there
     # are at most two families (brackets opening on backward or on forward faces).
+    around = corner_edges[order]
     candidates = []
     for opener in (False, True):
         for offset in range(n):
-            stack: list[int] = []
-            pairs = []
-            for step in range(n):
-                i = (offset + step) % n
-                if d[i] == opener:
-                    stack.append(i)
-                elif stack:
-                    pairs.append(
-                        (int(corner_edges[order[stack.pop()]]), int(corner_edges[order[i]]))
-                    )
-                else:
-                    break
-            if len(pairs) * 2 == n:
+            pairs = _brackets(d, around, opener, offset, whole=True)
+            if pairs is not None and len(pairs) * 2 == n:
                 candidates.append(pairs)
                 break
-    return candidates or _partial_pairs(d, corner_edges[order])
+    return candidates or _partial_pairs(d, around)
+
+
+def _brackets(
+    forward: NDArray[np.bool_],
+    corner_edges: NDArray[np.int64],
+    opener: bool,
+    offset: int,
+    *,
+    whole: bool,
+) -> list[tuple[int, int]] | None:
+    """The faces around an edge (in radial order, ``forward`` their direction) matched as
+    brackets from ``offset`` on, those running the ``opener`` way opening: pairs of
+    corner-edges.  A closer with no opener left ends it (None) if ``whole``, else stays out."""
+    stack: list[int] = []
+    pairs = []
+    for step in range(len(forward)):
+        i = (offset + step) % len(forward)
+        if forward[i] == opener:
+            stack.append(i)
+        elif stack:
+            pairs.append((int(corner_edges[stack.pop()]), int(corner_edges[i])))
+        elif whole:
+            return None
+    return pairs
 
 
 def _partial_pairs(
@@ -87,19 +101,12 @@ def _partial_pairs(
 ) -> list[list[tuple[int, int]]]:
     """The largest non-crossing matchings of opposite runs around an edge (faces in radial
     order, ``forward`` their direction), each found once, in the order first found."""
-    n = len(forward)
     found: list[list[tuple[int, int]]] = []
     seen: set[frozenset[tuple[int, int]]] = set()
     for opener in (False, True):
-        for offset in range(n):
-            stack: list[int] = []
-            pairs = []
-            for step in range(n):
-                i = (offset + step) % n
-                if forward[i] == opener:
-                    stack.append(i)
-                elif stack:  # a closer with no opener left stays out
-                    pairs.append((int(corner_edges[stack.pop()]), int(corner_edges[i])))
+        for offset in range(len(forward)):
+            pairs = _brackets(forward, corner_edges, opener, offset, whole=False)
+            assert pairs is not None
             key = frozenset(pairs)
             if key not in seen:
                 seen.add(key)
