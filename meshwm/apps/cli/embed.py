@@ -371,6 +371,14 @@ def _mesh_line(row: dict[str, Any]) -> str:
             f", MRMS {100 * row['mrms_rel']:.4f}%, Hausdorff {100 * row['hausdorff_rel']:.3f}% "
             "of the bbox diagonal"
         )
+    parts, detached = row.get("components_passed_through", 0), row.get("faces_detached", 0)
+    if parts:  # the surface map carries the mark in the largest part alone
+        text += (
+            f"; {parts} smaller part{'s' if parts != 1 else ''} kept off the surface map "
+            "(moved by the radial mark only)"
+        )
+    if detached:
+        text += f"; {detached} face{'s' if detached != 1 else ''} on non-manifold edges detached"
     if row.get("read_ber"):  # accepted with a few bits wrong (at most 2 %)
         text += f"; its surface map reads back {row['read_ber']:.1%} of its bits wrong"
         text += ", which its code corrects" if "id" in row else ""

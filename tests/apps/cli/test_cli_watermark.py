@@ -18,6 +18,7 @@ from PIL import Image
 
 from meshwm.apps.cli import main
 from meshwm.apps.cli.output import rounded as _rounded
+from meshwm.mesh.io import read_mesh, write_mesh
 from meshwm.message.mark import default_mark, load_mark, save_mark
 
 ASSETS = Path(__file__).parents[3] / "assets"
@@ -579,3 +580,39 @@ def test_the_embed_line_says_how_many_bits_read_back_wrong(payload, read_ber, sa
         assert "wrong" not in line
     else:
         assert line.endswith(says)
+
+
+def test_embed_says_what_the_surface_map_left_out(tmp_path, capsys):
+    # spot with a fin: the fin comes off the surface (a part of its own, one face detached).
+    v, f = read_mesh(ASSETS / "spot.ply")
+    e = f[0]
+    fin_v = np.vstack([v, v[e[:2]].mean(axis=0) + np.array([0.0, 0.05, 0.0])])
+    fin_f = np.vstack([f, [[e[1], e[0], len(v)]]])
+    src, out = tmp_path / "fin.ply", tmp_path / "out.ply"
+    write_mesh(src, fin_v, fin_f)
+    assert (
+        main(["embed", str(src), "-o", str(out), "--key", KEY, "--id", "0x12", "--no-distance"])
+        == 0
+    )
+    said = capsys.readouterr().out
+    assert "1 smaller part kept off the surface map" in said
+    assert "1 face on non-manifold edges detached" in said
+    assert main(["verify", str(out), "--key", KEY, "--id", "0x12"]) == 0
+    plain = tmp_path / "plain.ply"
+    assert (
+        main(
+            [
+                "embed",
+                str(ASSETS / "spot.ply"),
+                "-o",
+                str(plain),
+                "--key",
+                KEY,
+                "--id",
+                "0x12",
+                "--no-distance",
+            ]
+        )
+        == 0
+    )
+    assert "surface map" not in capsys.readouterr().out
