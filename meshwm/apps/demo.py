@@ -34,6 +34,7 @@ DEMO_ATTACKS: tuple[tuple[str, str | None, dict], ...] = (
     ("Laplacian smoothing x10", "laplacian", {"iterations": 10}),
     ("vertices split at seams, re-welded", "split_seams", {"seed": 4}),
     ("trimesh's default (merging) load", "merge_load", {}),
+    ("mirrored (change of handedness)", "mirror", {"seed": 5}),
 )
 #: The id the demo embeds.
 DEMO_ID = bytes.fromhex("5ca1ab1e0ddba11f")
