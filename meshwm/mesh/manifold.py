@@ -115,15 +115,18 @@ def _partial_pairs(
     return [p for p in found if len(p) == most]
 
 
-def _opening(vertices: NDArray[np.float64], faces: NDArray[np.int64], p: int, q: int) -> float:
-    """The angle between two faces around the edge they share (corner-edges ``p`` and ``q``):
-    pi where they continue each other flat, 0 where they fold onto each other."""
-    edge = vertices[faces.reshape(-1)[_head(np.array([p]))[0]]] - vertices[faces.flat[p]]
-    edge = edge / np.linalg.norm(edge)
+def _opening(
+    vertices: NDArray[np.float64], faces: NDArray[np.int64], edge: tuple[int, int], p: int, q: int
+) -> float:
+    """The angle between two faces around their ``edge`` (vertices ``a, b``; the faces' corner-
+    edges ``p`` and ``q``): pi where they continue each other flat, 0 where they fold onto each
+    other."""
+    a, b = vertices[edge[0]], vertices[edge[1]]
+    along = (b - a) / np.linalg.norm(b - a)
     out = []
     for c in (p, q):
-        r = vertices[faces[c // 3, (c % 3 + 2) % 3]] - vertices[faces.flat[p]]
-        r = r - (r @ edge) * edge
+        r = vertices[faces[c // 3, (c % 3 + 2) % 3]] - a  # to the face's third corner
+        r = r - (r @ along) * along
         out.append(r / max(float(np.linalg.norm(r)), 1e-300))
     return float(np.arccos(np.clip(out[0] @ out[1], -1.0, 1.0)))
 
@@ -242,7 +245,7 @@ def _rebuild_connectivity(
             score = [
                 (
                     sum(one_sheet(p, q) for p, q in pairs),
-                    sum(_opening(vertices, faces, p, q) for p, q in pairs),
+                    sum(_opening(vertices, faces, (a, b), p, q) for p, q in pairs),
                 )
                 for pairs in options
             ]
