@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from _dev_meshes import DEV
+from _fins import with_fins
 from numpy.testing import assert_array_equal
 
 from meshwm.errors import MeshError
@@ -432,13 +433,7 @@ def test_walled_box_keeps_its_outer_sheet() -> None:
 
 def _finned_spot() -> tuple[np.ndarray, np.ndarray]:
     """spot with 12 fins: triangles standing on far-apart edges, half each way round."""
-    vertices, faces = load_asset("spot")
-    edges, _ = unique_edges(faces)
-    pick = edges[:: len(edges) // 12][:12]
-    tips = vertices[pick].mean(axis=1) + np.array([0.0, 0.05, 0.0])
-    fins = np.stack([pick[:, 0], pick[:, 1], len(vertices) + np.arange(12)], axis=1)
-    fins[::2, :2] = fins[::2, 1::-1]
-    return np.vstack([vertices, tips]), np.vstack([faces, fins])
+    return with_fins(*load_asset("spot"))
 
 
 def _corner_groups(vertices: np.ndarray, faces: np.ndarray, vperm, fperm) -> tuple:
