@@ -340,19 +340,21 @@ def _record(
     return rows
 
 
-def _summary_line(summary: dict[str, Any]) -> str:
-    def count(n: int, word: str) -> str:
-        plural = word if n == 1 else (word + "es" if word.endswith("sh") else word + "s")
-        return f"{n} {plural}"
+def _count(n: int, word: str) -> str:
+    """``n`` and ``word``, plural unless ``n`` is 1 (a word ending in "sh" takes "es")."""
+    plural = word if n == 1 else (word + "es" if word.endswith("sh") else word + "s")
+    return f"{n} {plural}"
 
-    parts = [count(summary["vertices"], "vertex").replace("vertexs", "vertices")]
-    parts.append(count(summary["faces"], "face"))
+
+def _summary_line(summary: dict[str, Any]) -> str:
+    parts = [_count(summary["vertices"], "vertex").replace("vertexs", "vertices")]
+    parts.append(_count(summary["faces"], "face"))
     names = {"polygons": "polygon", "uvs": "UV", "normals": "normal", "colors": "colour"}
     names["materials"] = "material"
     for key, word in names.items():
         if summary[key]:
-            parts.append(count(summary[key], word))
-    parts.append(count(summary["meshes"], "mesh"))
+            parts.append(_count(summary[key], word))
+    parts.append(_count(summary["meshes"], "mesh"))
     return ", ".join(parts) + f"; {summary['dtype']}"
 
 
@@ -373,12 +375,10 @@ def _mesh_line(row: dict[str, Any]) -> str:
         )
     parts, detached = row.get("components_passed_through", 0), row.get("faces_detached", 0)
     if parts:  # the surface map carries the mark in the largest part alone
-        text += (
-            f"; {parts} smaller part{'s' if parts != 1 else ''} kept off the surface map "
-            "(moved by the radial mark only)"
-        )
+        text += f"; {_count(parts, 'smaller part')} kept off the surface map (moved by the "
+        text += "radial mark only)"
     if detached:
-        text += f"; {detached} face{'s' if detached != 1 else ''} on non-manifold edges detached"
+        text += f"; {_count(detached, 'face')} on non-manifold edges detached"
     if row.get("read_ber"):  # accepted with a few bits wrong (at most 2 %)
         text += f"; its surface map reads back {row['read_ber']:.1%} of its bits wrong"
         text += ", which its code corrects" if "id" in row else ""
