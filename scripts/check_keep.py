@@ -118,6 +118,9 @@ def attacks(beyond: bool) -> dict[str, Attack | None]:
                 "mirrored + noise 0.1 %": lambda v, f: _registered("noise", amplitude=0.001)(
                     *_registered("mirror")(v, f)
                 ),
+                "mirrored + MeshLab Laplacian 3": lambda v, f: _registered(
+                    "meshlab_laplacian", iterations=3
+                )(*_registered("mirror")(v, f)),
                 "simplify 50 %": _registered("simplify", keep_fraction=0.5),
             }
         )

@@ -16,6 +16,9 @@ cannot is a row with the refusal).
 
     python scripts/null_keep.py [--keys 350] [--wrong-keys 50] [--first-key 0]
         [--readers radial ...] [--logo] [--jobs 2] [--out FILE]
+
+(``--readers 'surface (mirrored)'``: the surface reader's images of the mirror image alone,
+counted alone.)
 """
 
 from __future__ import annotations
@@ -34,6 +37,7 @@ from meshwm.attacks import apply_attack
 from meshwm.detect import decide
 from meshwm.mesh.io import read_mesh
 from meshwm.message.mark import default_mark
+from meshwm.readers import reader_names
 from meshwm.watermark import Decoder, embed
 
 MESHES = Path(__file__).resolve().parents[2] / "shared" / "meshes"
@@ -143,6 +147,8 @@ def main() -> int:
     readers = tuple(args.readers) if args.readers else None
     if min(args.keys, args.wrong_keys) < 1 or args.first_key < 0:
         parser.error("--keys and --wrong-keys must be >= 1, --first-key >= 0")
+    if readers is not None and set(readers) - set(reader_names()):
+        parser.error(f"--readers: valid: {', '.join(map(repr, reader_names()))}")
     unknown = [n for n in args.meshes if not (MESHES / f"{n}.ply").is_file()]
     if unknown:
         parser.error(f"no such mesh: {', '.join(unknown)} (not in {MESHES})")

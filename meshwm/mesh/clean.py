@@ -61,6 +61,8 @@ __all__ = [
     "edge_topology_counts",
     "euler_characteristic",
     "largest_component",
+    "shared_cleaning",
+    "shared_memo",
     "uniform_smoothing_operator",
     "unique_edges",
 ]
@@ -215,6 +217,12 @@ def shared_cleaning(memo: dict | None = None) -> Iterator[None]:
         yield
     finally:
         _SHARED.reset(token)
+
+
+def shared_memo() -> dict | None:
+    """The memo of the enclosing :func:`shared_cleaning` (None outside one), for the other
+    pure results of one mesh its readers share (the surface reader's smoothing undone)."""
+    return _SHARED.get()
 
 
 def clean_mesh(

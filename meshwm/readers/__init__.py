@@ -9,8 +9,9 @@ which the detection decision counts.  The decoder of every profile takes its out
 To add a reader: one module with a function ``read_x(vertices, faces, *, max_faces) ->
 SampledImage`` (or a sequence of them, one per hypothesis it offers) that raises
 :class:`meshwm.errors.GridError` when it finds nothing, a constant ``MOST_IMAGES`` (the most
-images it offers), optionally ``EXCLUDES`` (readers not to run once it found an image), and one
-entry in :data:`READERS`.
+images it offers), optionally ``EXCLUDES`` (readers not to run once it found an image) and
+``MOST_MIRRORED`` (the most images it offers with :data:`MIRRORED`'s options), and one entry in
+:data:`READERS`.
 """
 
 from __future__ import annotations
@@ -31,7 +32,15 @@ if TYPE_CHECKING:  # pragma: no cover
 
     from meshwm.readers.base import Reader
 
-__all__ = ["MIRRORED", "READERS", "get_reader", "most_images", "read_all", "read_received"]
+__all__ = [
+    "MIRRORED",
+    "READERS",
+    "get_reader",
+    "most_images",
+    "read_all",
+    "read_received",
+    "reader_names",
+]
 
 #: Blind readers, in the order they are tried: name -> "module:function".  The grid meshwm
 #: writes (``--grid``) first; then, for a mesh kept as it is, the spherical image of its
@@ -44,16 +53,17 @@ READERS: dict[str, str] = {
 
 
 #: Readers also run on the received mesh's mirror image (x negated, faces turned over), after
-#: every reader on the mesh itself.  A change of handedness (an engine's import of a
-#: right-handed asset negates one axis and turns the faces over to keep them facing out)
-#: mirrors the mesh, which no rotation undoes: the point set's pose then sees the mark's mirror
-#: image; mirrored back, it reads again.  Their images count as hypotheses like any other's.
-#: The radial reader only: the surface reader on the mirror image as well would read a
-#: mirrored mesh after smoothing or noise too, but it is the costly part of a read, and an
-#: unmarked mesh is read to the end (verify took 1.9 times as long: kitten 3.4 -> 5.9 s, igea
-#: 16.6 -> 30.9 s; the radial reader's mirror image adds 5-10 %).  (The grid reader tries the
-#: grid's mirror images already.)
-MIRRORED = ("radial",)
+#: every reader on the mesh itself, each with these extra keyword arguments.  A change of
+#: handedness (an engine's import of a right-handed asset negates one axis and turns the faces
+#: over to keep them facing out) mirrors the mesh, which no rotation undoes: the point set's
+#: pose and the surface map then see the mark's mirror image; mirrored back, it reads again.
+#: Their images count as hypotheses like any other's.  The surface reader's mirror image is
+#: read from its canonical start and near-ties only: a mirrored copy is the marked mesh's
+#: mirror image exactly, whose canonical start is the embedder's, and an unmarked mesh is read
+#: to the end (with every start verify took 1.9 times as long, igea 16.6 -> 30.9 s; so, its
+#: smoothing undone shared with the mesh's: kitten 2.9-3.4 -> 3.9 s, igea 14.5-15.6 ->
+#: 21.2-21.9 s).  (The grid reader tries the grid's mirror images already.)
+MIRRORED: dict[str, dict[str, Any]] = {"radial": {}, "surface": {"canonical": True}}
 #: What a mirrored reader's name and images are labelled with.
 _MIRROR_LABEL = " (mirrored)"
 
@@ -69,6 +79,12 @@ def _mirrored(found: SampledImage | Sequence[SampledImage]) -> Sequence[SampledI
     if isinstance(found, LazyImages):
         return LazyImages(len(found), lambda k: label(found[k]))
     return [label(image) for image in found]
+
+
+def reader_names() -> list[str]:
+    """Every name :func:`read_all`'s ``readers`` takes: each reader of :data:`READERS`, then
+    each mirror image's reading (``"radial (mirrored)"``), in the order they are tried."""
+    return [*READERS, *(n + _MIRROR_LABEL for n in READERS if n in MIRRORED)]
 
 
 def get_reader(name: str) -> Reader:
@@ -128,7 +144,9 @@ def read_all(
     the mesh (:func:`meshwm.mesh.clean.shared_cleaning`).  ``readers`` (names, kept in
     :data:`READERS`' order) limits the readers tried: the embedder checks each carrier on its
     own.  With ``mirror`` (the default) the readers of :data:`MIRRORED` among them then read
-    the mesh's mirror image too (the embedder's read-back of its own output does not).
+    the mesh's mirror image too (the embedder's read-back of its own output does not); a
+    mirror image's reading alone is asked for by its label (``"surface (mirrored)"``: a null
+    study of those images, counted alone).
 
     Raises
     ------
@@ -138,8 +156,7 @@ def read_all(
         No reader found a geometry image (every reader's message, in order).
     """
     check_mesh(vertices, faces, max_faces=max_faces)  # unusable arrays: MeshError, up front
-    memo: dict = {}
-    mirror_memo: dict = {}
+    memo: dict = {}  # the cleanings and the smoothing undone, of the mesh and its mirror image
 
     def runner(name: str) -> Any:
         def run() -> SampledImage | Sequence[SampledImage]:
@@ -156,29 +173,32 @@ def read_all(
         def run() -> Sequence[SampledImage]:
             v = np.asarray(vertices, dtype=np.float64) * np.array([-1.0, 1.0, 1.0])
             f = np.ascontiguousarray(np.asarray(faces)[:, ::-1])
-            with shared_cleaning(mirror_memo):
-                return _mirrored(get_reader(name)(v, f, max_faces=max_faces))
+            with shared_cleaning(memo):
+                found = get_reader(name)(v, f, max_faces=max_faces, **MIRRORED[name])
+            return _mirrored(found)
 
         return run
 
-    names = [name for name in READERS if readers is None or name in readers]
-    unknown = sorted(set(readers or ()) - set(READERS))
+    unknown = sorted(set(readers or ()) - set(reader_names()))
     if unknown:
-        raise ValueError(f"unknown readers {unknown}; valid: {', '.join(READERS)}")
+        raise ValueError(f"unknown readers {unknown}; valid: {', '.join(reader_names())}")
+    names = [name for name in READERS if readers is None or name in readers]
     entries = [(n, runner(n), most_images(n), _declared(n, "SCHEME", None)) for n in names]
     excludes = {n: tuple(_declared(n, "EXCLUDES", ())) for n in names}
     if mirror:
-        for n in names:
-            if n in MIRRORED:
+        for n in READERS:
+            if n in MIRRORED and (readers is None or n in readers or n + _MIRROR_LABEL in readers):
                 entries.append(
                     (
                         n + _MIRROR_LABEL,
                         mirror_runner(n),
-                        most_images(n),
+                        _declared(n, "MOST_MIRRORED", most_images(n)),
                         _declared(n, "SCHEME", None),
                     )
                 )
         excludes = {n: (*e, *(x + _MIRROR_LABEL for x in e)) for n, e in excludes.items()}
+    if not entries:
+        raise ValueError(f"no reader to run: {list(readers or ())} without the mirror image")
     chain = ChainedImages(entries, excludes=excludes)
     try:
         chain[0]

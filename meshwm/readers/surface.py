@@ -23,6 +23,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
+from meshwm._digest import arrays_key
 from meshwm._validate import DEFAULT_MAX_FACES, check_mesh
 from meshwm.errors import GridError, MeshError
 from meshwm.gim.stable import TIPS
@@ -36,16 +37,20 @@ from meshwm.gim.surface import (
     sample_surface,
     surface_of,
 )
+from meshwm.mesh.clean import shared_memo
 from meshwm.mesh.unsmooth import cotangent_unsmoothed
 from meshwm.readers.base import LazyImages, SampledImage
 from meshwm.readers.connectivity import unsmoothed
 
-__all__ = ["MOST_IMAGES", "read_surface"]
+__all__ = ["MOST_IMAGES", "MOST_MIRRORED", "read_surface"]
 
 #: The most images this reader offers: every size for the candidate starts, the near-tie starts
 #: (:attr:`meshwm.gim.stable.StableCut.near_ties`, at most ``2 * TIPS``) and, where vertices
 #: coincide, the candidate starts again on the connectivity as given.
 MOST_IMAGES = (2 * len(SURFACE_RANKS) + 2 * TIPS) * len(SURFACE_SIZES)
+#: The most images it offers with ``canonical`` (the mirror image's reading,
+#: :data:`meshwm.readers.MIRRORED`): every size for the canonical start and the near-ties.
+MOST_MIRRORED = (1 + 2 * TIPS) * len(SURFACE_SIZES)
 
 
 Unsmoothed = list[tuple[int | str, NDArray[np.float64]]]
@@ -56,6 +61,33 @@ def _unsmoothed(positions: NDArray[np.float64], faces: NDArray[np.int64]) -> Uns
     steps undone (:func:`meshwm.mesh.unsmooth.cotangent_unsmoothed`'s labels)."""
     found: Unsmoothed = list(unsmoothed(positions, faces))
     found += list(cotangent_unsmoothed(positions, faces))
+    return found
+
+
+#: A mirror image's positions: x negated (its faces turned over).
+_MIRROR = np.array([-1.0, 1.0, 1.0])
+
+
+def _unsmoothed_once(
+    positions: NDArray[np.float64], faces: NDArray[np.int64], memo: dict | None
+) -> Unsmoothed:
+    """:func:`_unsmoothed`, computed once for a mesh and its mirror image within one memo
+    (:func:`meshwm.mesh.clean.shared_memo`: the readers of one received mesh and of its mirror
+    image, :data:`meshwm.readers.MIRRORED`).  Both undoings commute with a reflection (the
+    uniform step depends on the connectivity alone, MeshLab's on the angles), and the mirror
+    image's surface is the mesh's reflected, position for position and face for face turned
+    over, so its positions undone are the mesh's reflected."""
+    if memo is None:
+        return _unsmoothed(positions, faces)
+    key = ("unsmoothed", *arrays_key(positions, faces))
+    if key not in memo:
+        mirror = np.ascontiguousarray(faces[:, ::-1])
+        image = ("unsmoothed", *arrays_key(positions * _MIRROR, mirror))
+        if image in memo:
+            memo[key] = [(label, x * _MIRROR) for label, x in memo[image]]
+        else:
+            memo[key] = _unsmoothed(positions, faces)
+    found: Unsmoothed = memo[key]
     return found
 
 
@@ -88,6 +120,7 @@ def read_surface(
     *,
     max_faces: int = DEFAULT_MAX_FACES,
     like: Surface | None = None,
+    canonical: bool = False,
 ) -> LazyImages:
     """Sample a received mesh through its re-derived stable map, at every size and start.
 
@@ -100,6 +133,12 @@ def read_surface(
     like : Surface, optional
         A speed hint, not information: the map of a mesh with the same faces, reused only
         where it is provably the one this mesh gives (:func:`~meshwm.gim.surface.surface_of`).
+    canonical : bool, optional
+        Offer the canonical start and the near-ties only (a runner-up farthest vertex, a tip's
+        runner-up first edge: the genus-8 plate's marked copy starts at the second farthest
+        vertex along its runner-up edge), not the runner-up tips nor the connectivity as
+        given: one map on most meshes where the full set makes four or more (the reader of a
+        mirror image, :data:`meshwm.readers.MIRRORED`).
 
     Returns
     -------
@@ -117,6 +156,7 @@ def read_surface(
         A surface the map cannot open (non-manifold, non-orientable, too small).
     """
     v, f = check_mesh(vertices, faces, max_faces=max_faces, frozen=True)  # else MeshError
+    memo = shared_memo()  # the undoing shared with the mirror image's reader, if any
     try:
         first = surface_of(v, f, max_faces=max_faces, like=like)
     except MeshError as merged:
@@ -133,8 +173,10 @@ def read_surface(
     restart = like.map if like is not None and same else None
     # Tips whose first edge is a near-tie are also started along the runner-up edge.
     ranks = (*SURFACE_RANKS, *(r for r in first.map.cut.near_ties if r not in SURFACE_RANKS))
+    if canonical:  # the first start and the near-ties, not the runner-up tips
+        ranks = (SURFACE_RANKS[0], *ranks[len(SURFACE_RANKS) :])
     starts = [(False, r) for r in ranks]
-    if int(first.report.get("vertices_merged", 0)) > 0:
+    if int(first.report.get("vertices_merged", 0)) > 0 and not canonical:
         # Coincident vertices were merged: a UV seam welded back, or two vertices that coarse
         # quantisation made coincide, which merged change the connectivity (igea at 10 bits:
         # 16 merges move the cut).  The connectivity as given is offered too.
@@ -163,7 +205,8 @@ def read_surface(
     def positions_undone(surface: Surface) -> Unsmoothed:
         key = (id(surface.positions), id(surface.faces))
         if key not in undone:  # the surface is kept with it, so the ids stay its own
-            undone[key] = (surface, _unsmoothed(surface.positions, _smoothed_faces(surface, f)))
+            over = _smoothed_faces(surface, f)
+            undone[key] = (surface, _unsmoothed_once(surface.positions, over, memo))
         return undone[key][1]
 
     def make(k: int) -> SampledImage:

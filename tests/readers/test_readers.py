@@ -134,3 +134,69 @@ def test_readers_run_lazily_and_an_early_stop_counts_what_it_skipped(spot_mesh):
     again = Decoder(marked, f)
     again.extract_id(key="another key")
     assert again.hypotheses == decoder.hypotheses == found.report["hypotheses"]
+
+
+def test_the_canonical_surface_reading_is_the_first_start_and_the_near_ties(spot_mesh):
+    from meshwm.attacks import apply_attack
+    from meshwm.gim.surface import SURFACE_RANKS, SURFACE_SIZES, surface_of
+    from meshwm.readers.surface import MOST_MIRRORED, read_surface
+
+    v, f = spot_mesh
+    plain = read_surface(v, f)
+    near = surface_of(v, f).map.cut.near_ties
+    assert near  # spot's start has near-ties
+    canonical = read_surface(v, f, canonical=True)
+    sizes = len(SURFACE_SIZES)
+    assert len(canonical) == (1 + len(near)) * sizes <= MOST_MIRRORED
+    # The same images as the full reading's first start and near-ties, in the same order.
+    same = list(range(sizes)) + list(range(len(SURFACE_RANKS) * sizes, len(plain)))
+    for k, j in enumerate(same):
+        assert_array_equal(canonical[k].samples, plain[j].samples)
+        assert canonical[k].primary == plain[j].primary
+    # Coincident vertices: no reading of the connectivity as given either.
+    sv, sf = apply_attack("split_seams", v, f, seed=3)
+    assert len(read_surface(sv, sf, canonical=True)) == len(canonical)
+
+
+def test_the_mirror_image_undoes_smoothing_once_with_the_mesh(spot_mesh, monkeypatch):
+    """Its positions undone are the mesh's reflected (the undoings commute with a
+    reflection): computed once for both, and what a reading of the mirror image alone makes."""
+    from meshwm.attacks import apply_attack
+    from meshwm.readers import read_all
+    from meshwm.readers import surface as module
+
+    v, f = spot_mesh
+    sv, sf = apply_attack("meshlab_laplacian", v, f, iterations=1)
+    calls: list[int] = []
+    real = module._unsmoothed
+    monkeypatch.setattr(module, "_unsmoothed", lambda p, fa: calls.append(len(p)) or real(p, fa))
+    images = read_all(sv, sf, readers=["surface"])
+    readers = [image.reader for image in images]
+    assert "surface" in readers and "surface (mirrored)" in readers
+    plain = images[readers.index("surface")].smoothing_undone()
+    shared = images[readers.index("surface (mirrored)")].smoothing_undone()
+    assert len(calls) == 1 and len(shared) == len(plain) > 1
+    mv, mf = sv * [-1.0, 1.0, 1.0], np.ascontiguousarray(sf[:, ::-1])
+    alone = module.read_surface(mv, mf, canonical=True)[0].smoothing_undone()
+    assert len(calls) == 2  # outside a shared memo: computed
+    scale = float(np.ptp(sv, axis=0).max())
+    assert [label for label, _ in shared] == [label for label, _ in alone]
+    for (_, got), (_, want) in zip(shared, alone, strict=True):
+        assert_allclose(got, want, rtol=0, atol=1e-12 * scale)
+
+
+def test_a_mirror_images_reading_is_asked_for_by_its_label(spot_mesh):
+    from meshwm.readers import read_all, reader_names
+
+    v, f = spot_mesh
+    assert reader_names() == [*READERS, "radial (mirrored)", "surface (mirrored)"]
+    alone = read_all(v, f, readers=["surface (mirrored)"])
+    assert {image.reader for image in alone} == {"surface (mirrored)"}
+    both = read_all(v, f, readers=["surface"])
+    assert [image.reader for image in both] == ["surface"] * (len(both) - len(alone)) + [
+        "surface (mirrored)"
+    ] * len(alone)
+    with pytest.raises(ValueError, match="unknown readers"):
+        read_all(v, f, readers=["surface (mirror)"])
+    with pytest.raises(ValueError, match="no reader to run"):
+        read_all(v, f, readers=["surface (mirrored)"], mirror=False)

@@ -79,9 +79,7 @@ def test_the_id_survives(kitten_marked, attack, options):
 
 
 def _mirrored(vertices: np.ndarray, faces: np.ndarray, seed: int) -> tuple:
-    """A change of handedness in a random pose (the ``mirror`` attack).  (Not 16-bit
-    quantisation after it: the radial carrier alone reads that in some poses only, kitten's id
-    in check_keep.py's at 0.082.)"""
+    """A change of handedness in a random pose (the ``mirror`` attack)."""
     return apply_attack("mirror", vertices, faces, seed=seed)
 
 
@@ -108,6 +106,28 @@ def test_a_mirrored_copy_reads_through_the_radial_readers_mirror_image(
     got = Decoder(mv, mf).extract_id(key=KEY)
     assert got.id == IDENT.hex() and got.report["reader"] == "radial (mirrored)"
     # Without the mirror image no reader finds it: the pose sees the mark's mirror image.
+    assert Decoder(mv, mf, mirror=False).extract_id(key=KEY).id != IDENT.hex()
+
+
+@pytest.mark.parametrize(
+    ("attack", "options"),
+    [
+        ("quantize", {"bits": 16}),
+        ("noise", {"amplitude": 0.001}),
+        ("meshlab_laplacian", {"iterations": 3}),
+    ],
+)
+def test_a_mirrored_copy_reads_through_the_surface_readers_mirror_image(
+    kitten_marked, attack, options
+):
+    """What the radial carrier does not take after a mirror (check_keep.py reads kitten's
+    id mirrored and 16-bit quantised at 0.082 through it) reads through the surface map of the
+    mirror image, its smoothing undone as on the mesh itself."""
+    _, f, marked = kitten_marked
+    seed = 11 + len(attack)
+    mv, mf = apply_attack(attack, *_mirrored(marked.vertices, f, seed), seed=seed, **options)
+    got = Decoder(mv, mf).extract_id(key=KEY)
+    assert got.id == IDENT.hex() and got.report["reader"] == "surface (mirrored)"
     assert Decoder(mv, mf, mirror=False).extract_id(key=KEY).id != IDENT.hex()
 
 
