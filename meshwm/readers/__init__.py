@@ -25,7 +25,7 @@ import numpy as np
 from meshwm._validate import DEFAULT_MAX_FACES, check_mesh
 from meshwm.errors import GridError
 from meshwm.mesh.clean import shared_cleaning
-from meshwm.readers.base import ChainedImages, LazyImages, SampledImage
+from meshwm.readers.base import MIRROR, ChainedImages, LazyImages, SampledImage
 
 if TYPE_CHECKING:  # pragma: no cover
     from numpy.typing import NDArray
@@ -171,7 +171,7 @@ def read_all(
 
     def mirror_runner(name: str) -> Any:
         def run() -> Sequence[SampledImage]:
-            v = np.asarray(vertices, dtype=np.float64) * np.array([-1.0, 1.0, 1.0])
+            v = np.asarray(vertices, dtype=np.float64) * MIRROR
             f = np.ascontiguousarray(np.asarray(faces)[:, ::-1])
             with shared_cleaning(memo):
                 found = get_reader(name)(v, f, max_faces=max_faces, **MIRRORED[name])

@@ -8,7 +8,12 @@ from typing import NamedTuple, Protocol
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["ChainedImages", "LazyImages", "Reader", "SampledImage"]
+__all__ = ["MIRROR", "ChainedImages", "LazyImages", "Reader", "SampledImage"]
+
+#: The reflection a mirror image is read through (:data:`meshwm.readers.MIRRORED`): x negated,
+#: the faces turned over.  One constant, so that the surface reader's shared smoothing undone
+#: finds the mesh's under the very positions the mirror image is made of.
+MIRROR = np.array([-1.0, 1.0, 1.0])
 
 
 class SampledImage(NamedTuple):

@@ -39,7 +39,7 @@ from meshwm.gim.surface import (
 )
 from meshwm.mesh.clean import shared_memo
 from meshwm.mesh.unsmooth import cotangent_unsmoothed
-from meshwm.readers.base import LazyImages, SampledImage
+from meshwm.readers.base import MIRROR, LazyImages, SampledImage
 from meshwm.readers.connectivity import unsmoothed
 
 __all__ = ["MOST_IMAGES", "MOST_MIRRORED", "read_surface"]
@@ -64,10 +64,6 @@ def _unsmoothed(positions: NDArray[np.float64], faces: NDArray[np.int64]) -> Uns
     return found
 
 
-#: A mirror image's positions: x negated (its faces turned over).
-_MIRROR = np.array([-1.0, 1.0, 1.0])
-
-
 def _unsmoothed_once(
     positions: NDArray[np.float64], faces: NDArray[np.int64], memo: dict | None
 ) -> Unsmoothed:
@@ -82,9 +78,9 @@ def _unsmoothed_once(
     key = ("unsmoothed", *arrays_key(positions, faces))
     if key not in memo:
         mirror = np.ascontiguousarray(faces[:, ::-1])
-        image = ("unsmoothed", *arrays_key(positions * _MIRROR, mirror))
+        image = ("unsmoothed", *arrays_key(positions * MIRROR, mirror))
         if image in memo:
-            memo[key] = [(label, x * _MIRROR) for label, x in memo[image]]
+            memo[key] = [(label, x * MIRROR) for label, x in memo[image]]
         else:
             memo[key] = _unsmoothed(positions, faces)
     found: Unsmoothed = memo[key]
