@@ -11,8 +11,9 @@ decode whose CRC-32 matches).  Then each mesh is marked with an id (its mesh kep
 key.  Prints a table (detections, valid ids, smallest p-value x hypotheses) and exits 1 if
 anything is detected.  With ``--logo`` the expected payload is the bundled 32×32 logo, decided as
 ``meshwm verify --mark`` decides (p-value of the bits' agreement below 1e-6 over every
-hypothesis counted; "valid ids" is then 0), and the marked meshes carry the logo (a mesh that
-cannot is a row with the refusal).
+hypothesis counted), its column "drawn" counts the reads whose image was taken as a drawing
+(``"chosen_by": "drawing"``: noise should never look like one), and the marked meshes carry
+the logo (a mesh that cannot is a row with the refusal).
 
     python scripts/null_keep.py [--keys 350] [--wrong-keys 50] [--first-key 0]
         [--readers radial ...] [--logo] [--jobs 2] [--out FILE]
@@ -64,7 +65,7 @@ def _trial_logo(decoder: Decoder, key: str, ident: bytes) -> dict[str, Any]:
     verdict = decide(got.report, fpr=FPR)
     return {
         "detected": bool(verdict.detected),
-        "valid": False,
+        "valid": got.report["chosen_by"] == "drawing",
         "p_h": verdict.p_value * verdict.hypotheses,
     }
 
@@ -160,8 +161,9 @@ def main() -> int:
     ]
     with ProcessPoolExecutor(args.jobs) as pool:
         rows = [row for result in pool.map(run_mesh, tasks) for row in result]
+    counted = "drawn" if args.logo else "valid ids"
     lines = [
-        "| mesh | case | trials | detected | valid ids | smallest p × hypotheses |",
+        f"| mesh | case | trials | detected | {counted} | smallest p × hypotheses |",
         "|---|---|---:|---:|---:|---:|",
     ]
     for r in rows:
@@ -177,7 +179,7 @@ def main() -> int:
     detected = sum(r["detected"] for r in good)
     valid = sum(r["valid"] for r in good)
     lines.append(
-        f"\n{total} keyed trials: {detected} detections, {valid} valid ids "
+        f"\n{total} keyed trials: {detected} detections, {valid} {counted} "
         f"({time.perf_counter() - t0:.0f} s, FPR {FPR:g}, readers: "
         f"{', '.join(readers) if readers else 'all'})"
     )

@@ -6,7 +6,8 @@ array of 0/1 with ``n`` in 8..256: 1 is ink (dark), 0 is background (light).
 
 - :func:`load_mark` reads any image Pillow can read and binarises it;
 - :func:`save_mark` writes a mark as a black-and-white 1-bit PNG;
-- :func:`default_mark` is meshwm's own 32×32 logo (also shipped as ``assets/mark32.png``).
+- :func:`default_mark` is meshwm's own 32×32 logo (also shipped as ``assets/mark32.png``);
+- :func:`neighbour_correlation` tells a drawing from noise (a blind reader's pick of a logo).
 
 References
 ----------
@@ -28,7 +29,14 @@ from PIL import Image, ImageOps, UnidentifiedImageError
 
 from meshwm._atomic import write_atomic
 
-__all__ = ["MARK_SIZE_RANGE", "MAX_IMAGE_SIDE", "default_mark", "load_mark", "save_mark"]
+__all__ = [
+    "MARK_SIZE_RANGE",
+    "MAX_IMAGE_SIDE",
+    "default_mark",
+    "load_mark",
+    "neighbour_correlation",
+    "save_mark",
+]
 
 PathLike = str | os.PathLike[str]
 
@@ -376,3 +384,51 @@ def default_mark(size: int = 32) -> NDArray[np.uint8]:
     size = _check_mark_size(size)
     logo = np.array([[char == "#" for char in line] for line in _LOGO.split()], dtype=np.uint8)
     return np.ascontiguousarray(logo if size == logo.shape[0] else _resample_nearest(logo, size))
+
+
+def neighbour_correlation(mark: NDArray) -> tuple[float, int]:
+    """How much a mark's neighbouring pixels agree beyond what its ink fraction explains.
+
+    Parameters
+    ----------
+    mark : (n, m) array_like of 0/1
+        A mark (extracted: its bits unscrambled).
+
+    Returns
+    -------
+    r : float
+        The autocorrelation at one pixel's distance of the ±1 pixels (about their mean), over
+        every horizontally or vertically adjacent pair: about 0.5 for a logo (meshwm's:
+        0.465), 0 for noise, whatever the ink fraction; 0 for a mark of one colour.
+    pairs : int
+        How many pairs: on independent pixels ``r`` has a standard deviation of about
+        ``1 / sqrt(pairs)`` (0.022 on a 32×32 mark).
+
+    Notes
+    -----
+    A logo is a drawing: its strokes and fields make neighbours agree.  A mark read with a bit
+    error rate ``e`` keeps ``(1 - 2 e)**2`` of its correlation (the errors are scattered over
+    the image by the Arnold scrambling), so among the images a blind reader offers, the one
+    whose extracted mark correlates most is the one with the fewest wrong bits; a read of
+    noise (an image that does not carry the mark) correlates at 0.  Tamane and Deshmukh judge
+    an extracted logo by eye and by its correlation with the original; this asks the same
+    question without the original.
+
+    Examples
+    --------
+    >>> r, pairs = neighbour_correlation(default_mark())
+    >>> round(r, 3), pairs
+    (0.465, 1984)
+    >>> neighbour_correlation(np.zeros((8, 8), dtype=np.uint8))
+    (0.0, 112)
+    """
+    pm = 2.0 * np.asarray(mark, dtype=np.float64) - 1.0
+    if pm.ndim != 2:
+        raise ValueError(f"a mark is a 2-D array, got shape {pm.shape}")
+    products = np.concatenate([(pm[1:] * pm[:-1]).ravel(), (pm[:, 1:] * pm[:, :-1]).ravel()])
+    pairs = int(products.size)
+    mean = float(pm.mean()) if pm.size else 0.0
+    spread = 1.0 - mean * mean
+    if pairs == 0 or spread <= 1e-12:
+        return 0.0, pairs
+    return float((products.mean() - mean * mean) / spread), pairs

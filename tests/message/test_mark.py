@@ -23,7 +23,7 @@ from hypothesis.extra import numpy as hnp
 from PIL import Image
 
 import meshwm.message.mark as mmark
-from meshwm.message.mark import default_mark, load_mark, save_mark
+from meshwm.message.mark import default_mark, load_mark, neighbour_correlation, save_mark
 
 ASSETS = Path(__file__).parent.parent.parent / "assets"
 
@@ -560,3 +560,34 @@ def test_blank_after_resampling(tmp_path: Path) -> None:
 def test_path_must_be_a_path() -> None:
     with pytest.raises(TypeError):
         load_mark(123)  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize("wrong", [0.0, 0.05, 0.1, 0.2, 0.3])
+def test_a_logo_read_with_wrong_bits_keeps_its_share_of_the_drawing(wrong: float) -> None:
+    # Scattered wrong bits (the Arnold scrambling scatters them) keep (1 - 2 e)**2 of the
+    # correlation: the least wrong read correlates most.
+    logo = default_mark(32)
+    r0, pairs = neighbour_correlation(logo)
+    assert pairs == 2 * 32 * 31 and r0 > 0.4
+    for seed in range(5):
+        rng = np.random.default_rng(seed)
+        read = logo ^ (rng.random(logo.shape) < wrong).astype(np.uint8)
+        r, _ = neighbour_correlation(read)
+        assert abs(r - r0 * (1 - 2 * wrong) ** 2) < 4 / math.sqrt(pairs)
+
+
+def test_noise_has_no_drawing_whatever_its_ink() -> None:
+    for seed in range(300):
+        rng = np.random.default_rng(seed)
+        ink = [0.5, 0.2, 0.05][seed % 3]
+        noise = (rng.random((32, 32)) < ink).astype(np.uint8)
+        r, pairs = neighbour_correlation(noise)
+        assert abs(r) * math.sqrt(pairs) < 5
+
+
+def test_a_drawing_and_its_negative_correlate_alike_and_one_colour_not_at_all() -> None:
+    logo = default_mark(32)
+    assert neighbour_correlation(1 - logo)[0] == pytest.approx(neighbour_correlation(logo)[0])
+    assert neighbour_correlation(np.ones((16, 16), dtype=np.uint8)) == (0.0, 2 * 16 * 15)
+    with pytest.raises(ValueError, match="2-D"):
+        neighbour_correlation(np.zeros(16, dtype=np.uint8))
