@@ -374,7 +374,10 @@ def extract_asset(
     list of dict
         ``name``, ``kind`` (``"id"``, ``"mark"`` or None when the mesh cannot be read),
         ``id``/``id_text``, ``mark`` (the (k, k) 0/1 array), the mark report's figures
-        (``ber``, ``correlation``, ``p_value`` against ``expected``), ``logo`` and ``reason``.
+        (``ber``, ``correlation``, ``p_value`` against ``expected``), ``logo``, ``drawing``
+        (a mark: whether its image was taken as a drawing, ``"chosen_by"`` of
+        :meth:`meshwm.watermark.Decoder.decode`: a mark whose neighbouring pixels agree as a
+        drawing's do, which a read of noise does not) and ``reason``.
     """
     show = progress or _quiet
     rows = []
@@ -395,6 +398,7 @@ def extract_asset(
             compare = default_mark(32)
         found = decoder.extract(key=key, mark_size=mark_size, expected=compare)
         row.update(kind="mark", mark=found.mark, mark_size=mark_size, **_figures(found.report))
+        row["drawing"] = found.report["chosen_by"] == "drawing"
         if expected is None:
             for name in ("ber", "correlation", "p_value", "bits"):
                 row.pop(name, None)

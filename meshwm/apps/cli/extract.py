@@ -166,6 +166,11 @@ def _describe(row: dict[str, Any], args: argparse.Namespace) -> str:
         text += f" (BER {row['ber']:.4f}, corr2 {row['correlation']:.4f})"
     elif row.get("logo"):
         text += " (the bundled logo)"
+    elif "logo" in row and row.get("drawing"):
+        text += " (not the bundled logo: another mark, which reads as a drawing)"
     elif "logo" in row:
-        text += " (not the bundled logo: another mark, a wrong key, or no mark)"
+        text += (
+            " (not the bundled logo, and no drawing: a wrong key, no mark, or a mark that is"
+            " not a drawing)"
+        )
     return text

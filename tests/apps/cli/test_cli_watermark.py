@@ -162,7 +162,28 @@ def test_extract_finds_n_from_the_mesh(files, tmp_path, capsys):
     report = _json(capsys)
     assert report["n"] == 128
     assert "ber" not in report  # no --mark, nothing to compare with
+    assert report["logo"] is True and report["drawing"] is True
     np.testing.assert_array_equal(load_mark(out), default_mark(32))
+
+
+def test_extract_tells_another_drawing_from_noise(tmp_path, capsys):
+    # Without --mark a 32×32 mark is compared with the bundled logo; one that is not it is
+    # another drawing (its neighbouring pixels agree) or no drawing (here: a wrong key).
+    i, j = np.mgrid[:32, :32]
+    ring = (np.abs(np.hypot(i - 15.5, j - 15.5) - 10) < 3).astype(np.uint8)
+    ring[3:7, 4:28] = 1  # a bar on one side: not symmetric
+    png = tmp_path / "ring.png"
+    save_mark(png, ring)
+    marked = tmp_path / "ring.ply"
+    assert main(["embed", str(SPOT), "-o", str(marked), "--mark", str(png), *EMBED_OPTIONS]) == 0
+    capsys.readouterr()
+    assert main(["extract", str(marked), "--key", KEY]) == 0
+    assert "(not the bundled logo: another mark, which reads as a drawing)" in (
+        capsys.readouterr().out
+    )
+    assert main(["extract", str(marked), "--key", "a wrong key", "--json"]) == 0
+    report = _json(capsys)
+    assert report["logo"] is False and report["drawing"] is False
 
 
 @pytest.mark.parametrize("ident", [None, "0xC0FFEE42"], ids=["mark", "id"])
