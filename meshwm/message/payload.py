@@ -2,7 +2,7 @@
 
 A logo answers "is this ours?"; a studio also wants "whose copy is it?": a customer or build id
 embedded instead of the logo (``meshwm embed --id``).  An id must come back exactly or not at
-all, so it is wrapped twice:
+all, so it is wrapped twice, and read with the extractor's confidence:
 
 1. **Checksum.** The 8 id bytes get their CRC-32 (:func:`zlib.crc32`, 4 bytes).  A decode
    whose CRC does not match is *no id* (``None``), never a wrong one: a random 12-byte string

@@ -313,10 +313,10 @@ class Decoder:
         best: _Try | None = None
         most = 0.0
         for t in tried:
-            side = round(np.sqrt(len(t.found.bits)))
-            if side * side != len(t.found.bits):
+            mark = _as_mark(t.found.bits, self.params.arnold_iterations)
+            if mark.shape[0] == 1:  # not a square: no drawing to look for
                 return None
-            r, pairs = neighbour_correlation(_as_mark(t.found.bits, self.params.arnold_iterations))
+            r, pairs = neighbour_correlation(mark)
             if r * np.sqrt(pairs) >= _DRAWN_SIGMAS and r > most:
                 best, most = t, r
         return best
