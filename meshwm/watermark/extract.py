@@ -124,10 +124,6 @@ def _clean(found: Decoded) -> bool:
     return _strength(found) >= UNSMOOTH_BELOW
 
 
-def _valid_id(found: Decoded) -> bool:
-    return decode_id(found.bits, found.confidence) is not None
-
-
 class _Try(NamedTuple):
     """One image a reader offered (the ``k``-th), decoded."""
 
@@ -398,12 +394,22 @@ class Decoder:
     def extract_id(self, *, key: str | bytes, expected: bytes | None = None) -> ExtractedId:
         """The id, as :func:`extract_id` describes."""
         t0 = time.perf_counter()
-        tried, hypotheses = self._decode_all(PAYLOAD_BITS, key=key, enough=_valid_id)
+        # Each read's id, decoded once (the read is kept alive with it, so its id() is its own).
+        decoded: dict[int, tuple[Decoded, str | None]] = {}
+
+        def read_id(found: Decoded) -> str | None:
+            if id(found) not in decoded:
+                decoded[id(found)] = (found, decode_id(found.bits, found.confidence))
+            return decoded[id(found)][1]
+
+        tried, hypotheses = self._decode_all(
+            PAYLOAD_BITS, key=key, enough=lambda found: read_id(found) is not None
+        )
         # The strongest image whose code bits decode to a valid id (CRC-32 checked), else the
         # strongest: every image is a hypothesis counted for the false-positive rate either way.
-        valid = [t for t in tried if decode_id(t.found.bits, t.found.confidence) is not None]
-        bits, confidence, found = self._result((valid or tried)[0], hypotheses)
-        ident = decode_id(bits, confidence)
+        chosen = ([t for t in tried if read_id(t.found) is not None] or tried)[0]
+        bits, confidence, found = self._result(chosen, hypotheses)
+        ident = read_id(chosen.found)
         report = {"profile": self.params.profile, **found, "id": ident, "bits": PAYLOAD_BITS}
         if expected is not None:
             code = encode_id(expected)
