@@ -280,15 +280,14 @@ class Decoder:
         (gains, candidates).
         """
         tried, hypotheses = self._decode_all(n_bits, key=key, enough=_clean)
-        drawn = self._drawn(tried)
-        if drawn is not None:
-            bits, confidence, report = self._result(drawn, hypotheses)
-            return bits, confidence, {**report, "chosen_by": "drawing"}
-        # A key no mark was made with: what each image reads of noise.
-        noise = key_bytes(key, "a read of noise", 32)
-        chosen = max(tried, key=lambda t: self._above_noise(t, noise))
+        chosen, chosen_by = self._drawn(tried), "drawing"
+        if chosen is None:
+            # A key no mark was made with: what each image reads of noise.
+            noise = key_bytes(key, "a read of noise", 32)
+            chosen = max(tried, key=lambda t: self._above_noise(t, noise))
+            chosen_by = "strength"
         bits, confidence, report = self._result(chosen, hypotheses)
-        return bits, confidence, {**report, "chosen_by": "strength"}
+        return bits, confidence, {**report, "chosen_by": chosen_by}
 
     def _drawn(self, tried: Sequence[_Try]) -> _Try | None:
         """The image whose mark reads most like a drawing, if any reads clearly so.

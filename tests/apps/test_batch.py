@@ -196,8 +196,10 @@ def test_dask_local_cluster_gives_the_same_rows(library, capsys):
     assert strip == [{k: v for k, v in r.items() if k != "seconds"} for r in local]
     cli_rows = _lines(capsys)
     assert code == 2 and cli_rows[-1]["summary"]["present"] == 1
-    # Many files go to the workers in groups; the rows still come back in path order.
-    many = [paths[k % len(paths)] for k in range(2 * DASK_TASKS_PER_WORKER * 2 + 1)]
+    # Many files go to the workers in groups; the rows still come back in path order.  (Not
+    # the unmarked mesh: its thorough read, 129 times over, is most of a two-minute test.)
+    quick = [p for p in paths if p.name != "plain.ply"]
+    many = [quick[k % len(quick)] for k in range(2 * DASK_TASKS_PER_WORKER * 2 + 1)]
     assert _chunk_size(len(many), 2) == 2
     with (
         distributed.LocalCluster(
