@@ -1,0 +1,87 @@
+"""How far MeshLab's Laplacian moves a mesh's connectivity-spectral coefficients.
+
+A record for docs/keep.md ("What it does not survive"): could a carrier in another basis
+read cow after MeshLab's Laplacian (3 steps), which the surface and radial carriers do not?
+The basis is the one a blind reader re-derives exactly when the connectivity is kept: the
+eigenvectors of the Kirchhoff matrix ``D - A`` (R. Ohbuchi, A. Mukaiyama and S. Takahashi, "A
+frequency-domain approach to watermarking 3D shapes", Computer Graphics Forum 21(3), 2002).
+Per band of modes it prints the median size of the xyz coefficient vector, the median
+factor the attack scales it by, how far the attack moves it and turns it, and what a mark
+could: the whole distortion budget (``--budget``, RMS vertex displacement over the
+bounding-box diagonal, all of it spent here) spread over ``--slots`` coefficient vectors.
+
+    python scripts/check_spectral.py [--meshes cow spot] [--modes 400] [--steps 3]
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import numpy as np
+import scipy.linalg as sl
+import scipy.sparse as sp
+import trimesh
+
+from meshwm.attacks.smoothing import meshlab_laplacian
+
+MESHES = Path(__file__).resolve().parents[1].parent / "shared" / "meshes"
+BANDS = ((1, 10), (10, 50), (50, 100), (100, 200), (200, 300), (300, 400))
+
+
+def kirchhoff_modes(n: int, faces: np.ndarray, count: int) -> np.ndarray:
+    """The ``count + 1`` lowest eigenvectors (columns) of the mesh's Kirchhoff matrix."""
+    e = np.sort(np.vstack([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]]), axis=1)
+    e = np.unique(e, axis=0)
+    a = sp.coo_matrix((np.ones(len(e)), (e[:, 0], e[:, 1])), shape=(n, n))
+    a = (a + a.T).tocsr()
+    lap = sp.diags(np.asarray(a.sum(axis=1)).ravel()) - a
+    return sl.eigh(lap.toarray(), subset_by_index=[0, count])[1]
+
+
+def report(path: Path, *, modes: int, steps: int, budget: float, slots: int) -> None:
+    """Print the per-band figures of one mesh."""
+    mesh = trimesh.load(path, process=False)
+    v = np.asarray(mesh.vertices, dtype=np.float64)
+    f = np.asarray(mesh.faces, dtype=np.int64)
+    diag = float(np.linalg.norm(v.max(axis=0) - v.min(axis=0)))
+    u = kirchhoff_modes(len(v), f, modes)
+    moved, _ = meshlab_laplacian(v, f, iterations=steps)
+    c = u.T @ (v - v.mean(axis=0))
+    ca = u.T @ (moved - moved.mean(axis=0))
+    size, size_a = np.linalg.norm(c, axis=1), np.linalg.norm(ca, axis=1)
+    turn = np.degrees(np.arccos(np.clip(np.einsum("ij,ij->i", c, ca) / (size * size_a), -1, 1)))
+    shift = np.linalg.norm(ca - c, axis=1) / diag
+    mark = np.sqrt(len(v) / slots) * budget  # one coefficient vector's share, over diag
+    rms = np.sqrt(((moved - v) ** 2).sum(axis=1).mean()) / diag
+    print(f"{path.stem}: {len(v)} vertices, the attack moves them {rms:.2e} RMS; mark {mark:.2e}")
+    print("| modes | size | scaled by | moved | moved / mark | turned ° | mark turns ° |")
+    print("|---|---:|---:|---:|---:|---:|---:|")
+    for lo, hi in BANDS:
+        s = slice(lo, min(hi, modes + 1))
+        if s.start >= s.stop:
+            break
+        med = float(np.median(shift[s]))
+        print(
+            f"| {lo}-{hi} | {np.median(size[s]) / diag:.2e} | {np.median(size_a[s] / size[s]):.3f}"
+            f" | {med:.2e} | {med / mark:.1f} | {np.median(turn[s]):.2f}"
+            f" | {np.degrees(np.median(mark * diag / size[s])):.2f} |"
+        )
+
+
+def main() -> None:
+    """Parse the options and print one table per mesh."""
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--meshes", nargs="+", default=["cow", "spot"])
+    ap.add_argument("--modes", type=int, default=400)
+    ap.add_argument("--steps", type=int, default=3, help="MeshLab stepsmoothnum")
+    ap.add_argument("--budget", type=float, default=2e-4, help="RMS move / diagonal")
+    ap.add_argument("--slots", type=int, default=256, help="coefficient vectors, one a bit")
+    ap.add_argument("--dir", type=Path, default=MESHES)
+    a = ap.parse_args()
+    for name in a.meshes:
+        report(a.dir / f"{name}.ply", modes=a.modes, steps=a.steps, budget=a.budget, slots=a.slots)
+
+
+if __name__ == "__main__":
+    main()
