@@ -13,10 +13,13 @@ anything is detected.  With ``--logo`` the expected payload is the bundled 32×3
 ``meshwm verify --mark`` decides (p-value of the bits' agreement below 1e-6 over every
 hypothesis counted), its column "drawn" counts the reads whose image was taken as a drawing
 (``"chosen_by": "drawing"``: noise should never look like one), and the marked meshes carry
-the logo (a mesh that cannot is a row with the refusal).
+the logo (a mesh that cannot is a row with the refusal).  ``--odd`` reads shapes unlike the
+development meshes instead (:data:`ODD`: a triangle soup the surface reader cannot map, a
+sphere and a torus with no pose of their own, a flat sheet, many small components); a shape
+the embedder refuses is a row with the refusal.
 
     python scripts/null_keep.py [--keys 350] [--wrong-keys 50] [--first-key 0]
-        [--readers radial ...] [--logo] [--jobs 2] [--out FILE]
+        [--readers radial ...] [--logo] [--odd] [--jobs 2] [--out FILE]
 
 (``--readers 'surface (mirrored)'``: the surface reader's images of the mirror image alone,
 counted alone.)
@@ -32,6 +35,9 @@ from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+import trimesh
+
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from meshwm.attacks import apply_attack
@@ -44,6 +50,38 @@ from meshwm.watermark import Decoder, embed
 MESHES = Path(__file__).resolve().parents[2] / "shared" / "meshes"
 DEV = [p.stem for p in sorted(MESHES.glob("*.ply"))]
 FPR = 1e-6
+
+
+def _soup() -> trimesh.Trimesh:
+    rng = np.random.default_rng(1)
+    corners = rng.random((1500, 1, 3)) + 0.01 * rng.standard_normal((1500, 3, 3))
+    return trimesh.Trimesh(corners.reshape(-1, 3), np.arange(4500).reshape(-1, 3), process=False)
+
+
+def _components() -> trimesh.Trimesh:
+    rng = np.random.default_rng(2)
+    parts = [
+        trimesh.creation.icosphere(2, radius=0.1).apply_translation(c) for c in rng.random((20, 3))
+    ]
+    return trimesh.util.concatenate(parts)
+
+
+#: Shapes unlike the development meshes (``--odd``), each at least 2,000 vertices.
+ODD = {
+    "soup": _soup,  # 1,500 triangles sharing no vertex: no surface to map
+    "icosphere": lambda: trimesh.creation.icosphere(5),  # 10,242 vertices, every pose alike
+    "torus": lambda: trimesh.creation.torus(1.0, 0.3, major_sections=128, minor_sections=64),
+    "sheet": lambda: trimesh.creation.box().subdivide_to_size(0.035).apply_scale([1, 1, 0.001]),
+    "components": _components,  # 20 spheres of 162 vertices
+}
+
+
+def load(name: str) -> tuple[np.ndarray, np.ndarray]:
+    """A development mesh by its name, or an :data:`ODD` shape."""
+    if name in ODD:
+        m = ODD[name]()
+        return np.asarray(m.vertices, dtype=np.float64), np.asarray(m.faces, dtype=np.int64)
+    return read_mesh(MESHES / f"{name}.ply")
 
 
 def _derived(*parts: object) -> bytes:
@@ -76,7 +114,7 @@ def run_mesh(
     """Every trial on one mesh (a worker); keys and ids numbered from ``first``."""
     name, keys, wrong, readers, first, logo = task
     trial = _trial_logo if logo else _trial
-    v, f = read_mesh(MESHES / f"{name}.ply")
+    v, f = load(name)
     variants = {
         "as given": (v, f),
         "100 flips": apply_attack("flip_edges", v, f, seed=1, count=100),
@@ -141,6 +179,7 @@ def main() -> int:
         help="number keys (and wrong keys) from here: runs with disjoint ranges add up",
     )
     parser.add_argument("--logo", action="store_true", help="the 32×32 logo instead of ids")
+    parser.add_argument("--odd", action="store_true", help="the odd shapes, not the dev meshes")
     parser.add_argument("--jobs", type=int, default=2)
     parser.add_argument("--out", type=Path)
     args = parser.parse_args()
@@ -150,7 +189,9 @@ def main() -> int:
         parser.error("--keys and --wrong-keys must be >= 1, --first-key >= 0")
     if readers is not None and set(readers) - set(reader_names()):
         parser.error(f"--readers: valid: {', '.join(map(repr, reader_names()))}")
-    unknown = [n for n in args.meshes if not (MESHES / f"{n}.ply").is_file()]
+    if args.odd:
+        args.meshes = list(ODD)
+    unknown = [n for n in args.meshes if n not in ODD and not (MESHES / f"{n}.ply").is_file()]
     if unknown:
         parser.error(f"no such mesh: {', '.join(unknown)} (not in {MESHES})")
     if args.out is not None and not args.out.parent.is_dir():

@@ -11,7 +11,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from meshwm._validate import DEFAULT_MAX_FACES
-from meshwm.detect import DEFAULT_FPR, Verdict, decide, detection_p_value
+from meshwm.detect import DEFAULT_FPR, Verdict, decide, read_p_value
 from meshwm.message.keying import key_bytes
 from meshwm.message.mark import neighbour_correlation
 from meshwm.message.payload import PAYLOAD_BITS, decode_id, encode_id
@@ -272,14 +272,18 @@ class Decoder:
     ) -> tuple[NDArray[np.uint8], NDArray[np.float64], dict[str, Any]]:
         """``n_bits`` raw bits, their confidence, and a report with ``hypotheses``.
 
-        Every image the reader offered is decoded and the one whose mark reads most like a
-        drawing kept (:meth:`_drawn`), else, when none does, the one that reads most
-        strongly above noise (:meth:`_above_noise`); its ``n`` and ``reader`` are reported,
-        and ``chosen_by`` (``"drawing"`` or ``"strength"``);
+        Every image the reader offered is decoded and, among those that read something (a
+        bit of nonzero confidence), the one whose mark reads most like a drawing kept
+        (:meth:`_drawn`), else, when none does, the one that reads most strongly above noise
+        (:meth:`_above_noise`); its ``n`` and ``reader`` are reported, and ``chosen_by``
+        (``"drawing"`` or ``"strength"``);
         ``hypotheses`` is the sum over the images of the reader's count times the profile's
         (gains, candidates).
         """
         tried, hypotheses = self._decode_all(n_bits, key=key, enough=_clean)
+        # An image that read nothing (every confidence 0: no slot for these bits, or a read at
+        # chance) is no candidate while another read something; its bits are 0s, not a read.
+        tried = [t for t in tried if np.any(t.found.confidence != 0)] or tried
         chosen, chosen_by = self._drawn(tried), "drawing"
         if chosen is None:
             # A key no mark was made with: what each image reads of noise.
@@ -382,11 +386,10 @@ class Decoder:
             if exp.shape != mark.shape:
                 raise ValueError(f"expected mark is {exp.shape}, extracted {mark.shape}")
             exp_bits = arnold_scramble(exp, iterations=params.arnold_iterations).ravel()
-            agree = int(np.sum(exp_bits == bits))
             report["bits"] = n_bits
             report["ber"] = bit_error_rate(exp_bits, bits)
             report["correlation"] = correlation2(exp, mark)
-            report["p_value"] = detection_p_value(agree, n_bits)
+            report["p_value"] = read_p_value(exp_bits, bits, confidence)
         report["seconds"] = time.perf_counter() - t0
         return Extracted(mark, bits, confidence, report)
 
@@ -412,9 +415,8 @@ class Decoder:
         report = {"profile": self.params.profile, **found, "id": ident, "bits": PAYLOAD_BITS}
         if expected is not None:
             code = encode_id(expected)
-            agree = int(np.sum(code == bits))
             report["ber"] = bit_error_rate(code, bits)
-            report["p_value"] = detection_p_value(agree, PAYLOAD_BITS)
+            report["p_value"] = read_p_value(code, bits, confidence)
         report["seconds"] = time.perf_counter() - t0
         return ExtractedId(ident, bits, confidence, report)
 
