@@ -7,12 +7,15 @@ Binomial(n, 1/2).  Checked empirically on an unmarked geometry image with 2000 r
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import numpy as np
 import pytest
+import trimesh
 from scipy import stats
 
+from meshwm.apps.cli import main
 from meshwm.detect import decide, detection_p_value, is_detected
 from meshwm.gim.remesh import mesh_to_geometry_image
 from meshwm.mesh.io import read_mesh
@@ -67,3 +70,15 @@ def test_an_unmarked_soup_read_only_radially_never_shows_the_logo(key):
     assert found.report["p_value"] > 1e-6
     if not np.any(found.confidence):  # no image read anything (the radial read at chance)
         assert found.report["p_value"] == 1.0
+
+
+def test_verify_says_when_no_image_read_anything(tmp_path, capsys):
+    # Key "s1": every image of the soup reads at zero confidence (the radial reads at chance).
+    v, f = _triangle_soup()
+    path = tmp_path / "soup.ply"
+    trimesh.Trimesh(v, f, process=False).export(path)
+    assert main(["verify", str(path), "--key", "s1", "--json"]) == 1
+    row = json.loads(capsys.readouterr().out)
+    assert row["detected"] is False
+    assert row["p_value"] == 1.0
+    assert row["meshes"][0]["note"].startswith("no image of this mesh read a bit")

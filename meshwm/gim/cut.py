@@ -111,7 +111,12 @@ def area_centroid(vertices: NDArray[np.float64], faces: NDArray[np.int64]) -> ND
         total = np.add.reduce(weighted, axis=0)
     if total is None:  # no faces: the empty sum
         total = np.zeros(3)
-    return total / area.sum()
+    whole = area.sum()
+    if not whole > 0:
+        # No area to weigh by (faces collapsed to points, as a smoothed copy of a triangle
+        # soup's are): the faces' corners, each face alike, which a similarity moves alike.
+        return v[faces].mean(axis=(0, 1)) if len(faces) else total
+    return total / whole
 
 
 def argmax_stable(values: NDArray[np.float64], tiebreak: NDArray[np.float64]) -> int:

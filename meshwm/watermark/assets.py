@@ -349,7 +349,13 @@ def verify_asset(
                 hypotheses=verdict.hypotheses,
                 threshold=verdict.threshold,
             )
+        if not row["detected"] and r.get("bits_read") == 0 and "note" not in row:
+            row["note"] = _NOTHING_READ
     return rows
+
+
+#: Why a verdict's p-value is 1: every image read every bit at zero confidence.
+_NOTHING_READ = "no image of this mesh read a bit of it (no slot, or reads at chance)"
 
 
 def extract_asset(

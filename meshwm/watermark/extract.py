@@ -390,6 +390,7 @@ class Decoder:
             report["ber"] = bit_error_rate(exp_bits, bits)
             report["correlation"] = correlation2(exp, mark)
             report["p_value"] = read_p_value(exp_bits, bits, confidence)
+            report["bits_read"] = int(np.count_nonzero(confidence))
         report["seconds"] = time.perf_counter() - t0
         return Extracted(mark, bits, confidence, report)
 
@@ -417,6 +418,7 @@ class Decoder:
             code = encode_id(expected)
             report["ber"] = bit_error_rate(code, bits)
             report["p_value"] = read_p_value(code, bits, confidence)
+            report["bits_read"] = int(np.count_nonzero(confidence))
         report["seconds"] = time.perf_counter() - t0
         return ExtractedId(ident, bits, confidence, report)
 

@@ -113,6 +113,20 @@ def test_area_centroid_gives_the_bits_of_the_plain_formula(spot_mesh, chunk, mon
         assert np.array_equal(area_centroid(v, f), plain)
 
 
+def test_area_centroid_of_faces_without_area_is_their_corners_mean():
+    # A smoothed triangle soup's faces collapse to points: no NaN (0 / 0), and a similarity
+    # moves the centroid with the mesh.
+    rng = np.random.default_rng(4)
+    points = rng.random((30, 1, 3))
+    v = np.repeat(points, 3, axis=1).reshape(-1, 3)  # every face three copies of one point
+    f = np.arange(90).reshape(-1, 3)
+    c = area_centroid(v, f)
+    assert np.allclose(c, points.mean(axis=(0, 1)))
+    scale, shift = 37.5, np.array([3.0, -80.0, 11.0])
+    assert np.allclose(area_centroid(v * scale + shift, f), c * scale + shift)
+    assert np.array_equal(area_centroid(v, f[:0]), np.zeros(3))
+
+
 @pytest.mark.parametrize("seed", range(4))
 def test_argmax_stable_is_the_last_of_a_lexsort(seed):
     # Many exact ties in both keys, with NaN, inf and -0.0 among them: lexsort's last index.
