@@ -4,7 +4,9 @@ Under the null hypothesis (no mark, or another key) the keyed dither makes every
 fair coin, so the number of bits that agree with the expected message is Binomial(n, 1/2).
 That holds for the bits an image *read*; a bit with zero confidence was not read (no slot
 carries it, or none of its slots has samples) and reads 0 whatever the key, so it is left out
-(:func:`read_p_value`).
+(:func:`read_p_value`).  A mark (a logo) is tested against chance *given how many 1s it and the
+read have* (:func:`mark_p_value`): two sparse drawings agree on most pixels, so a copy carrying
+one must not verify as carrying the other.
 Extraction may try several hypotheses (grid orientations, offsets, sizes, gains, readers) and
 keeps the best; dividing the false-positive budget by their number keeps the overall chance of a
 false "present" on an unmarked mesh below ``fpr``.  Every caller that says "present" or "absent"
@@ -25,6 +27,7 @@ __all__ = [
     "decide",
     "detection_p_value",
     "is_detected",
+    "mark_p_value",
     "read_p_value",
 ]
 
@@ -101,6 +104,16 @@ def read_p_value(expected: ArrayLike, bits: ArrayLike, confidence: ArrayLike) ->
     >>> read_p_value([0, 0], [0, 0], [0.0, 0.0])
     1.0
     """
+    want, got = _read_bits(expected, bits, confidence)
+    if len(want) == 0:
+        return 1.0
+    return detection_p_value(int(np.sum(want == got)), len(want))
+
+
+def _read_bits(
+    expected: ArrayLike, bits: ArrayLike, confidence: ArrayLike
+) -> tuple[np.ndarray, np.ndarray]:
+    """The expected and read bits where the read has nonzero confidence."""
     want = np.asarray(expected).ravel()
     got = np.asarray(bits).ravel()
     read = np.asarray(confidence, dtype=np.float64).ravel() != 0
@@ -108,10 +121,52 @@ def read_p_value(expected: ArrayLike, bits: ArrayLike, confidence: ArrayLike) ->
         raise ValueError(
             f"expected, bits and confidence differ in length: {len(want)}, {len(got)}, {len(read)}"
         )
-    total = int(read.sum())
-    if total == 0:
+    return want[read], got[read]
+
+
+def mark_p_value(expected: ArrayLike, bits: ArrayLike, confidence: ArrayLike) -> float:
+    """The p-value of a read against an expected *mark*, given both their counts of 1s.
+
+    A drawing is mostly background: two thin 32×32 drawings with 6 % ink each (a plus and a
+    cross) agree on 88 % of their pixels, so the plain binomial tail (:func:`read_p_value`)
+    said a copy marked with the one carried the other (p 8.7e-149), and a blank mark too.  Here
+    the agreement is compared with what a read independent of the mark gives with the same
+    counts of 1s (the one-sided hypergeometric tail of the 1s they share: Fisher's exact
+    test), over the bits read (nonzero confidence).  Under the null (no mark, or another key)
+    the read bits are fair coins independent of the mark, so this is a valid p-value as the
+    binomial's is, conditioned on the margins; a mark or a read with no 1s or no 0s tells
+    nothing (1.0).  For the bundled logo (36 % ink) it costs little: a read with 35 % of its
+    bits wrong gives 2.0e-20 against the binomial's 2.1e-22.
+
+    Parameters
+    ----------
+    expected, bits : (n,) array_like of 0/1
+        The mark's bits looked for and the bits read (in the same order).
+    confidence : (n,) array_like of float
+        The decoder's soft confidence per bit; bits of zero confidence were not read.
+
+    Returns
+    -------
+    float
+        ``P(X >= shared 1s)`` for ``X`` hypergeometric, or 1.0 when nothing can be told.
+
+    Examples
+    --------
+    >>> plus = [1, 0, 0, 0, 0, 0, 0, 0, 0, 0]
+    >>> cross = [0, 1, 0, 0, 0, 0, 0, 0, 0, 0]
+    >>> round(read_p_value(plus, cross, [1.0] * 10), 4), mark_p_value(plus, cross, [1.0] * 10)
+    (0.0547, 1.0)
+    >>> round(mark_p_value(plus, plus, [1.0] * 10), 4)  # its one 1 among 10 where it should be
+    0.1
+    """
+    from scipy.stats import hypergeom
+
+    want, got = _read_bits(expected, bits, confidence)
+    total, marked, drawn = len(want), int(want.sum()), int(got.sum())
+    if min(marked, drawn) == 0 or max(marked, drawn) == total:
         return 1.0
-    return detection_p_value(int(np.sum(want[read] == got[read])), total)
+    shared = int(np.sum((want == 1) & (got == 1)))
+    return float(min(1.0, hypergeom.sf(shared - 1, total, marked, drawn)))
 
 
 def is_detected(p_value: float, *, fpr: float = DEFAULT_FPR, hypotheses: int = 1) -> bool:

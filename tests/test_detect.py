@@ -10,7 +10,13 @@ import pytest
 from numpy.testing import assert_allclose
 from scipy.stats import binomtest
 
-from meshwm.detect import decide, detection_p_value, is_detected, read_p_value
+from meshwm.detect import (
+    decide,
+    detection_p_value,
+    is_detected,
+    mark_p_value,
+    read_p_value,
+)
 
 # --- detection_p_value ---------------------------------------------------------------------
 
@@ -97,3 +103,47 @@ def test_an_empty_read_is_no_evidence_against_a_mostly_zero_logo():
 def test_read_p_value_refuses_arrays_of_different_lengths():
     with pytest.raises(ValueError, match="differ in length"):
         read_p_value([0, 1, 1], [0, 1], [0.5, 0.5])
+
+
+# --- mark_p_value ---------------------------------------------------------------------------
+
+
+def _thin(kind: str) -> np.ndarray:
+    yy, xx = np.mgrid[:32, :32]
+    if kind == "plus":
+        return ((yy == 16) | (xx == 16)).astype(np.uint8).ravel()
+    return ((yy == xx) | (yy == 31 - xx)).astype(np.uint8).ravel()
+
+
+def test_a_sparse_mark_read_does_not_verify_as_another_sparse_mark():
+    # Two 6 %-ink drawings agree on 88 % of their pixels: the binomial tail calls that a
+    # detection at any threshold; given the counts of 1s it is what independence gives.
+    plus, cross = _thin("plus"), _thin("cross")
+    sure = np.ones(1024)
+    assert read_p_value(cross, plus, sure) < 1e-100
+    assert mark_p_value(cross, plus, sure) > 0.01
+    assert mark_p_value(plus, plus, sure) < 1e-90  # the mark itself, read exactly
+    assert mark_p_value(np.zeros(1024), plus, sure) == 1.0  # a blank mark tells nothing
+    assert mark_p_value(plus, np.ones(1024), sure) == 1.0  # nor a read of all 1s
+
+
+def test_mark_p_value_holds_its_level_on_reads_of_noise():
+    # Fair coins against a sparse mark and against a balanced one: P(p < a) <= a (it is
+    # conservative, the tail being discrete), as for the binomial.
+    rng = np.random.default_rng(11)
+    for mark in (_thin("plus"), rng.integers(0, 2, 1024)):
+        p = np.array(
+            [mark_p_value(mark, rng.integers(0, 2, 1024), np.ones(1024)) for _ in range(2000)]
+        )
+        for a in (0.01, 0.05, 0.2):
+            assert np.mean(p < a) <= a + 3 * np.sqrt(a * (1 - a) / 2000)
+        assert np.mean(p < 0.2) > 0.1  # and not a test that never fires
+
+
+def test_mark_p_value_leaves_out_the_bits_not_read():
+    plus = _thin("plus")
+    conf = np.ones(1024)
+    read = plus.copy()
+    read[:512] = 0
+    conf[:512] = 0.0  # half the image had no samples
+    assert mark_p_value(plus, read, conf) == mark_p_value(plus[512:], plus[512:], np.ones(512))

@@ -11,7 +11,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from meshwm._validate import DEFAULT_MAX_FACES
-from meshwm.detect import DEFAULT_FPR, Verdict, decide, read_p_value
+from meshwm.detect import DEFAULT_FPR, Verdict, decide, mark_p_value, read_p_value
 from meshwm.message.keying import key_bytes
 from meshwm.message.mark import neighbour_correlation
 from meshwm.message.payload import PAYLOAD_BITS, decode_id, encode_id
@@ -389,7 +389,7 @@ class Decoder:
             report["bits"] = n_bits
             report["ber"] = bit_error_rate(exp_bits, bits)
             report["correlation"] = correlation2(exp, mark)
-            report["p_value"] = read_p_value(exp_bits, bits, confidence)
+            report["p_value"] = mark_p_value(exp_bits, bits, confidence)
             report["bits_read"] = int(np.count_nonzero(confidence))
         report["seconds"] = time.perf_counter() - t0
         return Extracted(mark, bits, confidence, report)
