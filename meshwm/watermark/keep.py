@@ -814,9 +814,15 @@ def embed_kept(
     vertices, faces = check_mesh(vertices, faces, max_faces=max_faces, frozen=True)
     surface = surface_of(vertices, faces, max_faces=max_faces)
     if int(surface.used.sum()) < len(bits):  # fewer vertices than bits: refused at once
+        used, whole = int(surface.used.sum()), len(np.unique(faces))
+        # The surface is the largest connected piece: say so when the mesh has more.
+        what = (
+            f"a mesh of {used} vertices"
+            if used == whole
+            else f"the largest connected piece of this mesh ({used} of its {whole} vertices)"
+        )
         raise CapacityError(
-            f"a mesh of {int(surface.used.sum())} vertices cannot carry a {len(bits)}-bit "
-            f"payload (a 64-bit id's needs about 2,000)"
+            f"{what} cannot carry a {len(bits)}-bit payload (a 64-bit id's needs about 2,000)"
         )
     tried: dict[str, Any] = {}
     best = 1.0

@@ -185,6 +185,18 @@ def test_a_logo_read_back_with_a_few_bits_wrong_is_marked_and_reported(plane_log
     assert not verify(marked.vertices, f, key="another key", mark=default_mark(32)).detected
 
 
+def test_a_copy_marked_with_the_logo_does_not_verify_as_another_mark(plane_logo):
+    # The logo is 64 % background: a blank mark agreed with its read on 64 % of the bits (p
+    # 2.8e-19, "present"). Marks are now tested given their counts of 1s.
+    _, f, marked = plane_logo
+    yy, xx = np.mgrid[:32, :32]
+    ring = (np.abs(np.hypot(yy - 15.5, xx - 15.5) - 11) < 3).astype(np.uint8)
+    thin = ((yy == 16) | (xx == 16)).astype(np.uint8)
+    for other in (np.zeros((32, 32), np.uint8), ring, thin, 1 - default_mark(32)):
+        assert not verify(marked.vertices, f, key="k3", mark=other).detected
+    assert verify(marked.vertices, f, key="k3", mark=default_mark(32)).detected
+
+
 #: A key with which kitten carries the logo at once (its surface map reads it with 1.4 % of
 #: the bits wrong; with ``KEY``, 3 %: its weak bits reinforced).
 LOGO_KEY = "studio-key-2026"
@@ -587,6 +599,14 @@ def test_a_mesh_smaller_than_the_payload_is_refused_at_once():
     box = trimesh.creation.box()  # 8 vertices
     with pytest.raises(CapacityError, match="8 vertices cannot carry a 256-bit"):
         embed(np.asarray(box.vertices), np.asarray(box.faces), key=KEY, ident=IDENT)
+    # 20 spheres of 162 vertices: 3,240 in all, but the surface is the largest piece.
+    balls = trimesh.util.concatenate(
+        [trimesh.creation.icosphere(2, radius=0.1).apply_translation([k, 0, 0]) for k in range(20)]
+    )
+    with pytest.raises(
+        CapacityError, match=r"largest connected piece of this mesh \(162 of its 3240"
+    ):
+        embed(np.asarray(balls.vertices), np.asarray(balls.faces), key=KEY, ident=IDENT)
 
 
 @pytest.mark.slow
