@@ -82,3 +82,19 @@ def test_verify_says_when_no_image_read_anything(tmp_path, capsys):
     assert row["detected"] is False
     assert row["p_value"] == 1.0
     assert row["meshes"][0]["note"].startswith("no image of this mesh read a bit")
+
+
+def test_verify_says_when_a_mark_has_too_little_ink_to_verify(tmp_path, capsys):
+    # One dot in 1,024 pixels: read whole, 1 chance in 1,024 that another one-dot drawing
+    # matches; verify says why it is absent rather than a bare p-value.
+    from meshwm.message.mark import save_mark
+
+    v, f = _triangle_soup()
+    path, dot = tmp_path / "soup.ply", tmp_path / "dot.png"
+    trimesh.Trimesh(v, f, process=False).export(path)
+    bits = np.zeros((32, 32), dtype=np.uint8)
+    bits[16, 16] = 1
+    save_mark(dot, bits)
+    assert main(["verify", str(path), "--key", "s0", "--mark", str(dot), "--json"]) == 1
+    note = json.loads(capsys.readouterr().out)["meshes"][0]["note"]
+    assert note.startswith("a mark with 1 of its 1024 pixels inked cannot be told")

@@ -21,7 +21,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from meshwm._validate import DEFAULT_MAX_FACES
-from meshwm.detect import DEFAULT_FPR, decide
+from meshwm.detect import DEFAULT_FPR, decide, is_detected, mark_p_value
 from meshwm.errors import CapacityError, GridError, MeshError
 from meshwm.mesh.asset import Asset
 from meshwm.message.mark import default_mark
@@ -349,9 +349,28 @@ def verify_asset(
                 hypotheses=verdict.hypotheses,
                 threshold=verdict.threshold,
             )
+            if not verdict.detected:
+                note = _too_little_ink(expected, fpr=fpr, hypotheses=verdict.hypotheses)
+                if note:
+                    row["note"] = note
         if not row["detected"] and r.get("bits_read") == 0 and "note" not in row:
             row["note"] = _NOTHING_READ
     return rows
+
+
+def _too_little_ink(mark: NDArray, *, fpr: float, hypotheses: int) -> str | None:
+    """Why a mark can never verify, if it cannot: so little ink (or paper) that even a read
+    of every bit is what another drawing with as many dots gives by chance
+    (:func:`meshwm.detect.mark_p_value`)."""
+    bits = mark.ravel()
+    best = mark_p_value(bits, bits, np.ones(bits.size))
+    if is_detected(best, fpr=fpr, hypotheses=hypotheses):
+        return None
+    ink = int(bits.sum())
+    return (
+        f"a mark with {ink} of its {bits.size} pixels inked cannot be told from other drawings "
+        f"even read whole (p {best:.3g} at best): it needs more ink and paper both"
+    )
 
 
 #: Why a verdict's p-value is 1: every image read every bit at zero confidence.
