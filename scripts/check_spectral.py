@@ -44,6 +44,8 @@ def report(path: Path, *, modes: int, steps: int, budget: float, slots: int) -> 
     mesh = trimesh.load(path, process=False)
     v = np.asarray(mesh.vertices, dtype=np.float64)
     f = np.asarray(mesh.faces, dtype=np.int64)
+    if not modes < len(v):
+        raise ValueError(f"{modes} modes asked of a mesh of {len(v)} vertices")
     diag = float(np.linalg.norm(v.max(axis=0) - v.min(axis=0)))
     u = kirchhoff_modes(len(v), f, modes)
     moved, _ = meshlab_laplacian(v, f, iterations=steps)
@@ -79,8 +81,20 @@ def main() -> None:
     ap.add_argument("--slots", type=int, default=256, help="coefficient vectors, one a bit")
     ap.add_argument("--dir", type=Path, default=MESHES)
     a = ap.parse_args()
+    if min(a.modes, a.slots) < 1 or not 1 <= a.steps <= 1000:
+        ap.error("--modes and --slots must be >= 1, --steps in 1..1000")
+    if not (np.isfinite(a.budget) and a.budget > 0):
+        ap.error(f"--budget must be a finite number > 0, got {a.budget}")
+    unknown = [n for n in a.meshes if not (a.dir / f"{n}.ply").is_file()]
+    if unknown:
+        ap.error(f"no such mesh: {', '.join(unknown)} (not in {a.dir})")
     for name in a.meshes:
-        report(a.dir / f"{name}.ply", modes=a.modes, steps=a.steps, budget=a.budget, slots=a.slots)
+        try:
+            report(
+                a.dir / f"{name}.ply", modes=a.modes, steps=a.steps, budget=a.budget, slots=a.slots
+            )
+        except ValueError as exc:  # an unreadable file, or more modes than the mesh has
+            ap.exit(2, f"{ap.prog}: error: {name}: {exc}\n")
 
 
 if __name__ == "__main__":

@@ -190,6 +190,8 @@ def main() -> int:
     if readers is not None and set(readers) - set(reader_names()):
         parser.error(f"--readers: valid: {', '.join(map(repr, reader_names()))}")
     if args.odd:
+        if args.meshes != DEV:
+            parser.error("--odd reads its own shapes: give --odd or --meshes, not both")
         args.meshes = list(ODD)
     unknown = [n for n in args.meshes if n not in ODD and not (MESHES / f"{n}.ply").is_file()]
     if unknown:
