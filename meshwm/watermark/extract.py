@@ -283,7 +283,7 @@ class Decoder:
         tried, hypotheses = self._decode_all(n_bits, key=key, enough=_clean)
         # An image that read nothing (every confidence 0: no slot for these bits, or a read at
         # chance) is no candidate while another read something; its bits are 0s, not a read.
-        tried = [t for t in tried if np.any(t.found.confidence != 0)] or tried
+        tried = [t for t in tried if t.strength > 0] or tried  # strength: mean |confidence|
         chosen, chosen_by = self._drawn(tried), "drawing"
         if chosen is None:
             # A key no mark was made with: what each image reads of noise.
