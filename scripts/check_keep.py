@@ -13,9 +13,12 @@ each method reads the id on each attack.  With ``--logo`` the payload is the bun
 (1,024 bits) instead of the id, on the meshes that carry it (a mesh that does not is listed
 with the embedder's ``CapacityError``); a cell is ``det`` and the logo's bit error rate (the
 carrier as above) when ``verify --mark`` detects it at FPR 1e-6, else the bit error rate alone.
+With ``--combined`` the attacks are chains of two or three, as a pipeline applies them (a
+change of the connectivity, then one of the positions: a clean-up's flips, then an export's
+quantisation), in place of the single attacks.
 
     python scripts/check_keep.py [--meshes spot fandisk ...] [--synthetic] [--cho | --logo]
-        [--jobs 2] [--out docs/bench/keep.md]
+        [--combined] [--jobs 2] [--out docs/bench/keep.md]
 """
 
 from __future__ import annotations
@@ -80,8 +83,49 @@ def _registered(name: str, **options: Any) -> Attack | None:
     return lambda v, f: apply_attack(name, v, f, seed=7, **options)
 
 
-def attacks(beyond: bool) -> dict[str, Attack | None]:
-    """The attacks issue 13 requires (and, with ``beyond``, those it asks to report)."""
+def _chain(*steps: tuple[str, dict[str, Any]]) -> Attack | None:
+    """The registered attacks ``steps`` (name, options), one after the other."""
+    found = [_registered(name, **options) for name, options in steps]
+    if any(a is None for a in found):
+        return None
+
+    def run(v: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        for attack in found:
+            assert attack is not None
+            v, f = attack(v, f)
+        return v, f
+
+    return run
+
+
+def combined() -> dict[str, Attack | None]:
+    """Chains of attacks a pipeline applies (``--combined``)."""
+    flips = ("flip_edges", {"count": 10})
+    q10, q16 = ("quantize", {"bits": 10}), ("quantize", {"bits": 16})
+    noise = ("noise", {"amplitude": 0.001})
+    meshlab = ("meshlab_laplacian", {"iterations": 3})
+    seams, retri = ("split_seams", {}), ("retriangulate", {})
+    return {
+        "10 flips, then quantize 10 bits": _chain(flips, q10),
+        "10 flips, then noise 0.1 %": _chain(flips, noise),
+        "10 flips, then MeshLab Laplacian 3": _chain(flips, meshlab),
+        "noise 0.1 %, then 10 flips": _chain(noise, flips),
+        "quads re-triangulated, then quantize 16 bits": _chain(retri, q16),
+        "quads re-triangulated, then quantize 10 bits": _chain(retri, q10),
+        "seam splits, then quantize 10 bits": _chain(seams, q10),
+        "seam splits, then MeshLab Laplacian 3": _chain(seams, meshlab),
+        "seam splits, then noise 0.1 %": _chain(seams, noise),
+        "STL welded, then noise 0.1 %": _chain(("weld_stl", {}), noise),
+        "merging load, then quantize 10 bits": _chain(("merge_load", {}), q10),
+        "similarity, reorder, quantize 16 bits": _chain(("similarity", {}), ("reorder", {}), q16),
+    }
+
+
+def attacks(beyond: bool, chains: bool = False) -> dict[str, Attack | None]:
+    """The attacks issue 13 requires (and, with ``beyond``, those it asks to report); with
+    ``chains``, :func:`combined`'s instead."""
+    if chains:
+        return combined()
     out: dict[str, Attack | None] = {
         "none": lambda v, f: (v, f),
         "PLY round trip": _registered("round_trip", suffix=".ply"),
@@ -181,7 +225,9 @@ def _read_logo(v: np.ndarray, f: np.ndarray, key: str) -> dict[str, Any]:
     return {"ok": bool(verdict.detected), "cell": cell}
 
 
-def run_mesh(name: str, beyond: bool, cho: bool, logo: bool = False) -> dict[str, Any]:
+def run_mesh(
+    name: str, beyond: bool, cho: bool, logo: bool = False, chains: bool = False
+) -> dict[str, Any]:
     """Embed, check, attack and read one mesh (the id, or with ``logo`` the 32×32 logo)."""
     v, f = load(name)
     read = _read_logo if logo else _read
@@ -216,7 +262,7 @@ def run_mesh(name: str, beyond: bool, cho: bool, logo: bool = False) -> dict[str
         cho_marked, _ = calibrate_cho(
             v, f, encode_id(IDENT), key=KEY, target_mrms_rel=r["mrms_rel"]
         )
-    for label, attack in attacks(beyond).items():
+    for label, attack in attacks(beyond, chains).items():
         if attack is None:
             row["cells"][label] = "n/a"
             continue
@@ -264,6 +310,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     add_run_options(parser)
     parser.add_argument("--beyond", action="store_true", help="add the attacks to report")
+    parser.add_argument("--combined", action="store_true", help="chains of attacks instead")
     payload = parser.add_mutually_exclusive_group()  # Cho 2007 carries ids only
     payload.add_argument("--cho", action="store_true", help="compare with Cho et al. 2007")
     payload.add_argument("--logo", action="store_true", help="the 32×32 logo instead of the id")
@@ -272,8 +319,17 @@ def main() -> None:
     t0 = time.perf_counter()
     with ProcessPoolExecutor(args.jobs) as pool:
         n = len(names)
-        rows = list(pool.map(run_mesh, names, [args.beyond] * n, [args.cho] * n, [args.logo] * n))
-    labels = list(attacks(args.beyond))
+        rows = list(
+            pool.map(
+                run_mesh,
+                names,
+                [args.beyond] * n,
+                [args.cho] * n,
+                [args.logo] * n,
+                [args.combined] * n,
+            )
+        )
+    labels = list(attacks(args.beyond, args.combined))
     text = table(rows, labels)
     if args.cho:
         text += "\n\n" + cho_table(rows, labels)
