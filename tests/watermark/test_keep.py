@@ -302,7 +302,10 @@ def test_every_size_is_tried_before_a_payload_is_refused(monkeypatch):
         lambda s, image, *a, **k: sizes.append(image.n) or mark_at(s, image, *a, **k),
     )
     v, f = make("genus8")
-    with pytest.raises(CapacityError, match=r"too large for the mesh \(a 64-bit id .*--id\)"):
+    # The best read-back's share of wrong bits (32 % and 48 % here until 2026-12-07, 18 % on
+    # another machine's rounding) picks the message's first half; either names the id.
+    refused = r"(too large for the mesh|wrong bits) \(a 64-bit id .*--id\)"
+    with pytest.raises(CapacityError, match=refused):
         embed(v, f, default_mark(32), key=KEY, distances=False)
     assert sizes == [256, 128]
 
