@@ -16,10 +16,14 @@ hypothesis counted), its column "drawn" counts the reads whose image was taken a
 the logo (a mesh that cannot is a row with the refusal).  ``--odd`` reads shapes unlike the
 development meshes instead (:data:`ODD`: a triangle soup the surface reader cannot map, a
 sphere and a torus with no pose of their own, a flat sheet, many small components); a shape
-the embedder refuses is a row with the refusal.
+the embedder refuses is a row with the refusal.  ``--seams`` reads each mesh after its UV
+seams were split and then moved (0.1 % noise, MeshLab's Laplacian, 3 steps) or quantised to
+10 bits, instead of the attacks above, and the marked mesh after the split and the noise: the
+cases where the surface reader also offers the mesh with its borders zipped
+(:mod:`meshwm.mesh.zip`).
 
     python scripts/null_keep.py [--keys 350] [--wrong-keys 50] [--first-key 0]
-        [--readers radial ...] [--logo] [--odd] [--jobs 2] [--out FILE]
+        [--readers radial ...] [--logo] [--odd] [--seams] [--jobs 2] [--out FILE]
 
 (``--readers 'surface (mirrored)'``: the surface reader's images of the mirror image alone,
 counted alone.)
@@ -108,20 +112,35 @@ def _trial_logo(decoder: Decoder, key: str, ident: bytes) -> dict[str, Any]:
     }
 
 
+def _split_then(
+    v: np.ndarray, f: np.ndarray, attack: str, **options: Any
+) -> tuple[np.ndarray, np.ndarray]:
+    """The mesh with seams split (as a UV export splits them), then ``attack``."""
+    sv, sf = apply_attack("split_seams", v, f, seed=1)
+    return apply_attack(attack, sv, sf, seed=1, **options)
+
+
 def run_mesh(
-    task: tuple[str, int, int, tuple[str, ...] | None, int, bool],
+    task: tuple[str, int, int, tuple[str, ...] | None, int, bool, bool],
 ) -> list[dict[str, Any]]:
     """Every trial on one mesh (a worker); keys and ids numbered from ``first``."""
-    name, keys, wrong, readers, first, logo = task
+    name, keys, wrong, readers, first, logo, seams = task
     trial = _trial_logo if logo else _trial
     v, f = load(name)
-    variants = {
-        "as given": (v, f),
-        "100 flips": apply_attack("flip_edges", v, f, seed=1, count=100),
-        "noise 0.1 %": apply_attack("noise", v, f, seed=1, amplitude=0.001),
-        "10-bit": apply_attack("quantize", v, f, seed=1, bits=10),
-        "similarity": apply_attack("similarity", v, f, seed=1),
-    }
+    if seams:
+        variants = {
+            "seams split, noise 0.1 %": _split_then(v, f, "noise", amplitude=0.001),
+            "seams split, MeshLab Laplacian 3": _split_then(v, f, "meshlab_laplacian"),
+            "seams split, 10-bit": _split_then(v, f, "quantize", bits=10),
+        }
+    else:
+        variants = {
+            "as given": (v, f),
+            "100 flips": apply_attack("flip_edges", v, f, seed=1, count=100),
+            "noise 0.1 %": apply_attack("noise", v, f, seed=1, amplitude=0.001),
+            "10-bit": apply_attack("quantize", v, f, seed=1, bits=10),
+            "similarity": apply_attack("similarity", v, f, seed=1),
+        }
     rows = []
     for label, (vv, ff) in variants.items():
         t0 = time.perf_counter()
@@ -146,11 +165,15 @@ def run_mesh(
     except Exception as exc:
         rows.append({"mesh": name, "case": "marked", "error": f"{type(exc).__name__}: {exc}"})
         return rows
-    decoder = Decoder(marked.vertices, marked.faces, readers=readers)
+    mv, mf = marked.vertices, marked.faces
+    if seams:
+        mv, mf = _split_then(mv, mf, "noise", amplitude=0.001)
+    decoder = Decoder(mv, mf, readers=readers)
     trials = [
         trial(decoder, _derived("wrong", name, j).hex(), ident) for j in range(first, first + wrong)
     ]
-    rows.append(_summary(name, "marked, wrong keys", trials, t0))
+    case = "marked, seams split, noise 0.1 %, wrong keys" if seams else "marked, wrong keys"
+    rows.append(_summary(name, case, trials, t0))
     return rows
 
 
@@ -180,6 +203,7 @@ def main() -> int:
     )
     parser.add_argument("--logo", action="store_true", help="the 32×32 logo instead of ids")
     parser.add_argument("--odd", action="store_true", help="the odd shapes, not the dev meshes")
+    parser.add_argument("--seams", action="store_true", help="seams split, then moved")
     parser.add_argument("--jobs", type=int, default=2)
     parser.add_argument("--out", type=Path)
     args = parser.parse_args()
@@ -189,6 +213,8 @@ def main() -> int:
         parser.error("--keys and --wrong-keys must be >= 1, --first-key >= 0")
     if readers is not None and set(readers) - set(reader_names()):
         parser.error(f"--readers: valid: {', '.join(map(repr, reader_names()))}")
+    if args.odd and args.seams:
+        parser.error("--seams splits the development meshes' seams: give --odd or --seams")
     if args.odd:
         if args.meshes != DEV:
             parser.error("--odd reads its own shapes: give --odd or --meshes, not both")
@@ -199,7 +225,7 @@ def main() -> int:
     if args.out is not None and not args.out.parent.is_dir():
         parser.error(f"--out: no such directory: {args.out.parent}")
     tasks = [
-        (name, args.keys, args.wrong_keys, readers, args.first_key, args.logo)
+        (name, args.keys, args.wrong_keys, readers, args.first_key, args.logo, args.seams)
         for name in args.meshes
     ]
     with ProcessPoolExecutor(args.jobs) as pool:

@@ -13,9 +13,13 @@ the decoder gets that far, and so is the runner-up first edge of a tip whose two
 are a near-tie (:attr:`meshwm.gim.stable.StableCut.near_ties`: the genus-8 plate's corner).
 Where the received mesh has coincident vertices, which the cleaning merges, the connectivity as
 given is offered too (quantisation makes vertices coincide, and merging them changes the
-connectivity the cut is made of).  The decoder is also offered the received mesh with uniform
-Laplacian smoothing undone, and with MeshLab's (cotangent) Laplacian smoothing undone
-(:mod:`meshwm.mesh.unsmooth`), sampled the same way.
+connectivity the cut is made of).  Where the received mesh has split seams (an export's UV
+seams) whose copies drifted apart (noise, a smoothing), or whose copies the cleaning merges
+along with vertices that quantisation made coincide, the mesh with its borders zipped and
+nothing else merged (:func:`meshwm.mesh.zip.zip_borders`) is offered too, from each candidate
+start.  The decoder is also offered the received mesh with uniform Laplacian smoothing undone,
+and with MeshLab's (cotangent) Laplacian smoothing undone (:mod:`meshwm.mesh.unsmooth`),
+sampled the same way.
 """
 
 from __future__ import annotations
@@ -38,16 +42,19 @@ from meshwm.gim.surface import (
     surface_of,
 )
 from meshwm.mesh.clean import shared_memo
+from meshwm.mesh.edges import distinct_rows
 from meshwm.mesh.unsmooth import cotangent_unsmoothed
+from meshwm.mesh.zip import zip_borders
 from meshwm.readers.base import MIRROR, LazyImages, SampledImage
 from meshwm.readers.connectivity import unsmoothed
 
 __all__ = ["MOST_IMAGES", "MOST_MIRRORED", "read_surface"]
 
 #: The most images this reader offers: every size for the candidate starts, the near-tie starts
-#: (:attr:`meshwm.gim.stable.StableCut.near_ties`, at most ``2 * TIPS``) and, where vertices
-#: coincide, the candidate starts again on the connectivity as given.
-MOST_IMAGES = (2 * len(SURFACE_RANKS) + 2 * TIPS) * len(SURFACE_SIZES)
+#: (:attr:`meshwm.gim.stable.StableCut.near_ties`, at most ``2 * TIPS``), where vertices
+#: coincide the candidate starts again on the connectivity as given, and where borders zip the
+#: candidate starts on the zipped mesh.
+MOST_IMAGES = (3 * len(SURFACE_RANKS) + 2 * TIPS) * len(SURFACE_SIZES)
 #: The most images it offers with ``canonical`` (the mirror image's reading,
 #: :data:`meshwm.readers.MIRRORED`): every size for the canonical start and the near-ties.
 MOST_MIRRORED = (1 + 2 * TIPS) * len(SURFACE_SIZES)
@@ -162,7 +169,8 @@ def read_surface(
             first = surface_of(v, f, max_faces=max_faces, merge=False)
         except MeshError:  # a surface the map cannot open: nothing to read
             raise GridError(f"the surface cannot be mapped: {merged}") from merged
-    surfaces: dict[tuple[bool, int], Surface] = {(False, SURFACE_RANKS[0]): first}
+    # The connectivities read: the cleaned mesh ("merged"), the one as given, the zipped one.
+    surfaces: dict[tuple[str, int], Surface] = {("merged", SURFACE_RANKS[0]): first}
     # The embedder's read-back: the input's map, restarted wherever a start is its start.
     welded = bool(first.report.get("merged", True))
     same = welded and same_cleaning(like, first.inverse, first.clean_to_position, first.faces)
@@ -171,48 +179,73 @@ def read_surface(
     ranks = (*SURFACE_RANKS, *(r for r in first.map.cut.near_ties if r not in SURFACE_RANKS))
     if canonical:  # the first start and the near-ties, not the runner-up tips
         ranks = (SURFACE_RANKS[0], *ranks[len(SURFACE_RANKS) :])
-    starts = [(False, r) for r in ranks]
+    starts = [("merged", r) for r in ranks]
     if int(first.report.get("vertices_merged", 0)) > 0 and not canonical:
         # Coincident vertices were merged: a UV seam welded back, or two vertices that coarse
         # quantisation made coincide, which merged change the connectivity (igea at 10 bits:
         # 16 merges move the cut).  The connectivity as given is offered too.
-        starts += [(True, r) for r in SURFACE_RANKS]
+        starts += [("given", r) for r in SURFACE_RANKS]
+    # The received faces each connectivity's smoothing ran over, on its own vertices.
+    meshes = {"merged": (v, f), "given": (v, f)}
+    if not canonical:
+        zipped = zip_borders(v, f)
+        # Offered where it is another connectivity than the cleaned one: where the zipping
+        # glued other vertices than the cleaning merged (seams whose copies drifted apart, or
+        # vertices off the borders that quantisation made coincide).
+        if zipped.glued and len(zipped.vertices) != len(first.positions):
+            meshes["zipped"] = (zipped.vertices, zipped.faces)
+            starts += [("zipped", r) for r in SURFACE_RANKS]
 
-    def surface_at(given: bool, rank: int) -> Surface:
-        if (given, rank) not in surfaces:
+    def base_of(variant: str) -> Surface:
+        """The connectivity's surface from the canonical start (made once)."""
+        if (variant, SURFACE_RANKS[0]) not in surfaces:
+            mv, mf = meshes[variant]
+            # As given, only a connectivity that holds most of the merged surface (not a
+            # soup).  The zipped mesh is cleaned as the received one is, unless vertices off
+            # its borders coincide (quantisation): those it keeps apart, as given.
+            given = variant == "given" or (
+                variant == "zipped" and len(distinct_rows(mv)[0]) < len(mv)
+            )
+            least = int(first.used.sum()) // 2
+            surfaces[(variant, SURFACE_RANKS[0])] = surface_of(
+                mv, mf, max_faces=max_faces, merge=not given, min_used=least if given else 0
+            )
+        return surfaces[(variant, SURFACE_RANKS[0])]
+
+    def surface_at(variant: str, rank: int) -> Surface:
+        if (variant, rank) not in surfaces:
             try:
-                if given and (True, SURFACE_RANKS[0]) not in surfaces:
-                    # Only a connectivity that holds most of the merged surface (not a soup).
-                    least = int(first.used.sum()) // 2
-                    surfaces[(True, SURFACE_RANKS[0])] = surface_of(
-                        v, f, max_faces=max_faces, merge=False, min_used=least
-                    )
-                base = surfaces[(given, SURFACE_RANKS[0])]
-                hint = None if given else restart
-                surfaces[(given, rank)] = remap_surface(base, base.positions, rank=rank, like=hint)
+                base = base_of(variant)
+                hint = restart if variant == "merged" else None
+                surfaces[(variant, rank)] = remap_surface(
+                    base, base.positions, rank=rank, like=hint
+                )
             except MeshError:
-                surfaces[(given, rank)] = first  # no such start or surface: the first again
-        return surfaces[(given, rank)]
+                surfaces[(variant, rank)] = first  # no such start or surface: the first again
+        return surfaces[(variant, rank)]
 
     # The starts and sizes of one connectivity share its positions and faces, so they undo
     # the same smoothing: once per connectivity.
     undone: dict[tuple[int, int], tuple[Surface, Unsmoothed]] = {}
 
-    def positions_undone(surface: Surface) -> Unsmoothed:
+    def positions_undone(surface: Surface, variant: str) -> Unsmoothed:
         key = (id(surface.positions), id(surface.faces))
         if key not in undone:  # the surface is kept with it, so the ids stay its own
-            over = _smoothed_faces(surface, f)
+            over = _smoothed_faces(surface, meshes[variant][1])
             undone[key] = (surface, _unsmoothed_once(surface.positions, over, memo))
         return undone[key][1]
 
     def make(k: int) -> SampledImage:
-        surface = surface_at(*starts[k // len(SURFACE_SIZES)])
+        variant, rank = starts[k // len(SURFACE_SIZES)]
+        surface = surface_at(variant, rank)
+        if surface is first:
+            variant = "merged"  # a start that fell back to the first surface
         image = sample_surface(surface, size=SURFACE_SIZES[k % len(SURFACE_SIZES)])
         return SampledImage(
             samples=image.samples,
             hypotheses=1,
             reader="surface",
-            smoothing_undone=lambda: _undone(positions_undone(surface), image),
+            smoothing_undone=lambda: _undone(positions_undone(surface, variant), image),
             primary=k < len(SURFACE_SIZES),  # the canonical start, at every size
         )
 

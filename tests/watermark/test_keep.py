@@ -9,6 +9,7 @@ from _fins import with_fins
 from meshwm.attacks import apply_attack
 from meshwm.errors import CapacityError
 from meshwm.gim.surface import sample_surface, surface_of
+from meshwm.mesh.zip import Zipped
 from meshwm.message.mark import default_mark
 from meshwm.metrics import bounding_box_diagonal
 from meshwm.watermark import Decoder, embed, verify
@@ -76,6 +77,31 @@ def test_the_id_survives(kitten_marked, attack, options):
     _, f, marked = kitten_marked
     av, af = apply_attack(attack, marked.vertices, f, seed=3, **options)
     assert Decoder(av, af).extract_id(key=KEY).id == IDENT.hex()
+
+
+@pytest.mark.parametrize(
+    ("then", "options"),
+    [
+        ("noise", {"amplitude": 0.001}),
+        ("meshlab_laplacian", {"iterations": 3}),
+        ("quantize", {"bits": 10}),
+    ],
+)
+def test_seams_split_then_moved_read_through_the_zipped_surface(
+    kitten_marked, then, options, monkeypatch
+):
+    # An export's UV seams, then noise or a smoothing that moves the copies apart (or coarse
+    # quantisation, which merges other vertices too): the surface reader zips the seams.
+    _, f, marked = kitten_marked
+    sv, sf = apply_attack("split_seams", marked.vertices, f, seed=5)
+    av, af = apply_attack(then, sv, sf, seed=5, **options)
+    got = Decoder(av, af, readers=("surface",)).extract_id(key=KEY)
+    assert got.id == IDENT.hex()
+    if then != "quantize":  # without the zipping, the seams stay open and nothing reads
+        import meshwm.readers.surface as surface_reader
+
+        monkeypatch.setattr(surface_reader, "zip_borders", lambda v, f: Zipped(v, f, 0))
+        assert Decoder(av, af, readers=("surface",)).extract_id(key=KEY).id is None
 
 
 def _mirrored(vertices: np.ndarray, faces: np.ndarray, seed: int) -> tuple:
