@@ -150,3 +150,51 @@ def test_octahedral_directions_cover_the_sphere_evenly():
     # Each octant holds an eighth of the pixels (those on the octahedron's edges aside).
     octant = (d > 0) @ np.array([1, 2, 4])
     assert_allclose(np.bincount(octant, minlength=8), len(d) / 8, rtol=0.05)
+
+
+def test_the_image_is_continuous_where_a_pixel_s_last_neighbour_changes():
+    # Two layers of directions, radii 1 and 0.4: a shape that is not star-shaped around its
+    # centre.  Slide a pixel's 9th nearest direction (its radius kept) to just outside its
+    # 8th, then to just inside: it becomes a neighbour and the 8th leaves.  A weight that did
+    # not vanish at the last neighbour jumps the pixel by ~0.04 (the two layers' radii apart);
+    # the image must not jump.
+    rng = np.random.default_rng(11)
+    unit = rng.normal(size=(4000, 3))
+    unit /= np.linalg.norm(unit, axis=1, keepdims=True)
+    points = unit * np.where(np.arange(4000) % 2 == 0, 1.0, 0.4)[:, None]
+    pose = point_poses(points)[0]
+    n = 32
+    canonical = pose.forward(points)
+    radius = np.linalg.norm(canonical, axis=1)
+    directions = canonical / radius[:, None]
+    grid = octahedral_directions(n)
+
+    def slid(pixel, point, distance):
+        # ``point`` slid along its great circle towards the pixel to chord ``distance``.
+        lo, hi = 0.0, 1.0
+        for _ in range(80):
+            t = 0.5 * (lo + hi)
+            d = directions[point] + t * (grid[pixel] - directions[point])
+            if np.linalg.norm(d / np.linalg.norm(d) - grid[pixel]) > distance:
+                lo = t
+            else:
+                hi = t
+        moved = canonical.copy()
+        d = directions[point] + hi * (grid[pixel] - directions[point])
+        moved[point] = d / np.linalg.norm(d) * radius[point]
+        return sphere_sampling(pose.inverse(moved), pose, n).image.ravel()[pixel]
+
+    checked = 0
+    for pixel in rng.permutation(len(grid)):
+        chord = np.linalg.norm(directions - grid[pixel], axis=1)
+        order = np.argsort(chord)
+        eighth, ninth = order[7], order[8]
+        if abs(radius[eighth] - radius[ninth]) < 0.3 or chord[eighth] - chord[order[6]] < 1e-5:
+            continue  # the same layer (no jump to see), or a tie in front of the 8th
+        outside = slid(pixel, ninth, chord[eighth] + 1e-8)
+        inside = slid(pixel, ninth, chord[eighth] - 1e-8)
+        assert abs(inside - outside) < 1e-5
+        checked += 1
+        if checked == 20:
+            break
+    assert checked == 20
