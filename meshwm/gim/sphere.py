@@ -12,8 +12,8 @@ left out, so that a direction's weight falls to zero as it leaves the pixel's ne
 image is continuous in the points (a tiny move that swaps the last neighbour and the next one
 moves no sample; with a weight that stayed positive at the last, a shape that is not
 star-shaped around its centre, the bunny's ears or fertility's handles, jumped by the
-difference of two layers' radii, and 16-bit quantisation already left the id unread there).
-A connectivity edit, a vertex order, a seam split or weld and an STL soup
+difference of two layers' radii, and 16-bit quantisation already left the radial carrier's
+id unread there).  A connectivity edit, a vertex order, a seam split or weld and an STL soup
 leave the point set, and so the image, exactly as they were; a similarity leaves it the same
 to rounding.
 
