@@ -878,6 +878,18 @@ def embed_kept(
                 if ok or again_ber < ber:
                     attempt, out, ber = again, again_out, again_ber
         if ok:
+            radial_ber = attempt.report.get("radial_ber")
+            if attempt.report.get("start") == "nudged" and (radial_ber or 0.0) > _AT_CHANCE:
+                # No pose of its own (the radial carrier reads at chance), and a cut start
+                # the mark tipped and a bump put back: what holds the surface map is that
+                # bump, far smaller than 0.1 % noise or a clean-up's move (a torus read back
+                # whole, then at chance after either).  Every size shares both.
+                raise CapacityError(
+                    "this mesh does not carry a blind mark that survives a move: a symmetric "
+                    "shape (a torus, a cylinder, a sphere) has no pose of its own (the "
+                    f"spherical image reads back {radial_ber:.0%} wrong bits) and its cut start "
+                    "is held only by a nudge the mark made, which noise or a clean-up re-decides"
+                )
             report = {
                 **attempt.report,
                 "n": n,

