@@ -37,9 +37,9 @@ class SampledImage(NamedTuple):
         What decodes the image when it is not the embedding's profile: ``"radial"`` for the
         spherical image of the radial carrier (:data:`meshwm.profiles.CARRIERS`).
     primary : bool
-        The reader's first hypothesis (the grid it found; the surface map from the canonical
-        cut start): a decoder tries it with every candidate, however weakly it reads as
-        received.
+        One of the reader's first hypotheses (the grid it found; the surface map from the
+        canonical cut start, of each connectivity the surface reader offers): a decoder tries
+        it with every candidate, however weakly it reads as received.
     """
 
     samples: NDArray[np.float64]

@@ -148,8 +148,10 @@ def read_surface(
     LazyImages
         For each candidate start of :data:`~meshwm.gim.surface.SURFACE_RANKS` (the farthest
         vertex first), then each near-tie start of the received mesh, one image per size of
-        :data:`~meshwm.gim.surface.SURFACE_SIZES`, each one hypothesis; the maps of the
-        runner-up starts are made only when asked for.
+        :data:`~meshwm.gim.surface.SURFACE_SIZES`, each one hypothesis, then those of the
+        connectivity as given and of the zipped mesh where they are offered; the maps of the
+        runner-up starts are made only when asked for.  Each connectivity's canonical start
+        is ``primary`` (decoded with every candidate however weakly it reads as received).
 
     Raises
     ------
@@ -246,7 +248,7 @@ def read_surface(
             hypotheses=1,
             reader="surface",
             smoothing_undone=lambda: _undone(positions_undone(surface, variant), image),
-            primary=k < len(SURFACE_SIZES),  # the canonical start, at every size
+            primary=rank == SURFACE_RANKS[0],  # each connectivity's canonical start
         )
 
     return LazyImages(len(starts) * len(SURFACE_SIZES), make)
