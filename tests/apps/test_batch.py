@@ -128,6 +128,7 @@ def test_wrong_key_finds_no_id(library, capsys):
     assert _lines(capsys)[0]["id"] is None
 
 
+@pytest.mark.slow
 def test_jobs_give_the_same_rows_in_the_same_order(library):
     paths = expand_paths([library])
     check = Check(key=KEY, params=WatermarkParams(), mark=default_mark(32))

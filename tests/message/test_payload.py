@@ -143,6 +143,7 @@ def test_a_codeword_too_far_from_the_bits_read_is_not_an_id(wrong, decodes):
     assert decode_id(noisy, conf) == (ident.hex() if decodes else None)
 
 
+@pytest.mark.slow
 def test_random_bits_never_decode_to_an_id():
     rng = np.random.default_rng(0)
     found = [

@@ -214,6 +214,7 @@ def test_crops_against_a_geometry_image(dev_meshes):
         assert pose_error(fit, s * va @ r.T + t, va, _diagonal(v)) < 1e-10, seed
 
 
+@pytest.mark.slow
 def test_principal_frames_alone_settle_or_say_so():
     """``spread=False`` looks through the four principal frames only: where that search settles
     it is the full search bit for bit; where it does not, the full search went on to the spread

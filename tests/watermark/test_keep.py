@@ -83,7 +83,7 @@ def test_the_id_survives(kitten_marked, attack, options):
     ("then", "options"),
     [
         ("noise", {"amplitude": 0.001}),
-        ("meshlab_laplacian", {"iterations": 3}),
+        pytest.param("meshlab_laplacian", {"iterations": 3}, marks=pytest.mark.slow),
         ("quantize", {"bits": 10}),
     ],
 )
@@ -104,7 +104,7 @@ def test_seams_split_then_moved_read_through_the_zipped_surface(
         assert Decoder(av, af, readers=("surface",)).extract_id(key=KEY).id is None
 
 
-@pytest.mark.parametrize("seed", [0, 1])
+@pytest.mark.parametrize("seed", [0, pytest.param(1, marks=pytest.mark.slow)])
 def test_seams_split_then_meshlab_smoothing_reads_through_the_zipped_canonical_start(
     spot_mesh, seed
 ):
@@ -130,7 +130,7 @@ def _mirrored(vertices: np.ndarray, faces: np.ndarray, seed: int) -> tuple:
         (None, {}),
         ("float32", {}),
         ("round_trip", {"suffix": ".obj"}),
-        ("split_seams", {}),
+        pytest.param("split_seams", {}, marks=pytest.mark.slow),
         ("flip_edges", {"count": 100}),
         ("weld_stl", {}),
         ("reorder", {}),
@@ -173,6 +173,7 @@ def test_a_mirrored_copy_reads_through_the_surface_readers_mirror_image(
     assert Decoder(mv, mf, mirror=False).extract_id(key=KEY).id != IDENT.hex()
 
 
+@pytest.mark.slow
 def test_the_mirror_image_is_counted_and_detects_nothing_unmarked(kitten_mesh, kitten_marked):
     _, f, marked = kitten_marked
     mv, mf = _mirrored(marked.vertices, f, 3)
@@ -271,7 +272,10 @@ def kitten_logo(kitten_mesh):
     return v, f, embed(v, f, default_mark(32), key=LOGO_KEY, distances=False)
 
 
-@pytest.mark.parametrize("attack, options", [("quantize", {"bits": 16}), ("noise", {})])
+@pytest.mark.parametrize(
+    "attack, options",
+    [("quantize", {"bits": 16}), pytest.param("noise", {}, marks=pytest.mark.slow)],
+)
 def test_a_logo_is_read_at_its_own_size_blind(kitten_logo, attack, options):
     # kitten carries the logo at N = 256; its surface reader also offers N = 128, where a
     # 1,024-bit read of noise scores a mean |confidence| of 0.58 against the marked image's
@@ -290,6 +294,7 @@ def test_a_logo_is_read_at_its_own_size_blind(kitten_logo, attack, options):
     assert verify(av, af, key=LOGO_KEY, mark=logo).detected
 
 
+@pytest.mark.slow
 def test_a_logos_image_is_the_one_whose_mark_reads_most_like_a_drawing(kitten_logo, monkeypatch):
     # After 16-bit quantisation the radial carrier reads kitten's logo more strongly above
     # noise than the surface map does (0.55 against 0.28) but with four times the wrong bits:
