@@ -151,7 +151,10 @@ def read_surface(
         :data:`~meshwm.gim.surface.SURFACE_SIZES`, each one hypothesis, then those of the
         connectivity as given and of the zipped mesh where they are offered; the maps of the
         runner-up starts are made only when asked for.  Each connectivity's canonical start
-        is ``primary`` (decoded with every candidate however weakly it reads as received).
+        is ``primary`` (decoded with every candidate however weakly it reads as received).  A
+        start whose image another start gave already (a connectivity as given that falls back
+        to the cleaned one, a near-tie start that cuts as a runner-up tip does) offers that
+        image object again, for a decoder to decode once; it still counts as a hypothesis.
 
     Raises
     ------
@@ -199,7 +202,8 @@ def read_surface(
             starts += [("zipped", r) for r in SURFACE_RANKS]
 
     def base_of(variant: str) -> Surface:
-        """The connectivity's surface from the canonical start (made once)."""
+        """The connectivity's surface from the canonical start (made once), or ``first``
+        where the connectivity has none (an STL soup as given)."""
         if (variant, SURFACE_RANKS[0]) not in surfaces:
             mv, mf = meshes[variant]
             # As given, only a connectivity that holds most of the merged surface (not a
@@ -209,21 +213,28 @@ def read_surface(
                 variant == "zipped" and len(distinct_rows(mv)[0]) < len(mv)
             )
             least = int(first.used.sum()) // 2
-            surfaces[(variant, SURFACE_RANKS[0])] = surface_of(
-                mv, mf, max_faces=max_faces, merge=not given, min_used=least if given else 0
-            )
+            try:
+                surfaces[(variant, SURFACE_RANKS[0])] = surface_of(
+                    mv, mf, max_faces=max_faces, merge=not given, min_used=least if given else 0
+                )
+            except MeshError:
+                surfaces[(variant, SURFACE_RANKS[0])] = first
         return surfaces[(variant, SURFACE_RANKS[0])]
 
     def surface_at(variant: str, rank: int) -> Surface:
         if (variant, rank) not in surfaces:
+            base = base_of(variant)
+            if base is first and variant != "merged":
+                # No surface of its own: the cleaned one's, start for start (made once).
+                surfaces[(variant, rank)] = surface_at("merged", rank)
+                return surfaces[(variant, rank)]
             try:
-                base = base_of(variant)
                 hint = restart if variant == "merged" else None
                 surfaces[(variant, rank)] = remap_surface(
                     base, base.positions, rank=rank, like=hint
                 )
             except MeshError:
-                surfaces[(variant, rank)] = first  # no such start or surface: the first again
+                surfaces[(variant, rank)] = first  # no such start: the first again
         return surfaces[(variant, rank)]
 
     # The starts and sizes of one connectivity share its positions and faces, so they undo
@@ -237,18 +248,36 @@ def read_surface(
             undone[key] = (surface, _unsmoothed_once(surface.positions, over, memo))
         return undone[key][1]
 
+    # Starts that give an image already made (one that fell back to another's surface, a
+    # near-tie start whose cut is a ranked start's) offer that image object itself, which a
+    # decoder decodes once (:meth:`meshwm.watermark.extract.Decoder`); the hypotheses still
+    # count every start.
+    made: dict[tuple, SampledImage] = {}
+
     def make(k: int) -> SampledImage:
         variant, rank = starts[k // len(SURFACE_SIZES)]
         surface = surface_at(variant, rank)
         if surface is first:
             variant = "merged"  # a start that fell back to the first surface
         image = sample_surface(surface, size=SURFACE_SIZES[k % len(SURFACE_SIZES)])
-        return SampledImage(
+        # The same samples through the same matrix over the same positions and faces: the
+        # same image, and the same smoothing undone (``positions_undone``'s key).
+        key = (
+            id(surface.positions),
+            id(surface.faces),
+            *arrays_key(
+                image.samples, image.matrix.indptr, image.matrix.indices, image.matrix.data
+            ),
+        )
+        if key in made:
+            return made[key]
+        made[key] = SampledImage(
             samples=image.samples,
             hypotheses=1,
             reader="surface",
             smoothing_undone=lambda: _undone(positions_undone(surface, variant), image),
             primary=rank == SURFACE_RANKS[0],  # each connectivity's canonical start
         )
+        return made[key]
 
     return LazyImages(len(starts) * len(SURFACE_SIZES), make)

@@ -237,19 +237,29 @@ class Decoder:
         First every image as received (the robust profile: as received and despiked), in the
         readers' order; then again with every candidate their decoder has (the robust profile:
         smoothing undone), the readers' primary images (each connectivity's canonical cut
-        start) and the :data:`THOROUGH_IMAGES` strongest others.  With ``enough``, decoding
-        stops at the first read it accepts.
+        start) and the :data:`THOROUGH_IMAGES` strongest others.  An image a reader offers
+        twice (the same object) is decoded once.  With ``enough``, decoding stops at the first
+        read it accepts.
         """
         tried: list[_Try] = []
+        # A reader may offer one image twice (the surface reader's starts that fell back to
+        # its first map): decoded once (as the ``k`` of its first place), its decode stands
+        # for both, and it is read again with every candidate once at most.
+        first_of: dict[int, int] = {}
         for k, image in enumerate(self.images):
+            j = first_of.setdefault(id(image), k)
+            if j < k:
+                tried.append(tried[j])
+                continue
             found = self._decoder(image.scheme).decode(
                 self._prepare(k), n_bits, key=key, thorough=False
             )
             tried.append(_Try(_strength(found), image, found, k))
             if enough is not None and enough(found):
                 return sorted(tried, key=lambda t: -t.strength), self.hypotheses
-        strongest = sorted(range(len(tried)), key=lambda i: -tried[i].strength)
-        primary = [k for k, t in enumerate(tried) if t.image.primary]
+        once = [k for k, t in enumerate(tried) if t.k == k]  # not an image offered again
+        strongest = sorted(once, key=lambda i: -tried[i].strength)
+        primary = [k for k in once if tried[k].image.primary]
         again = primary + [k for k in strongest if k not in primary][:THOROUGH_IMAGES]
         for k in again:
             image = tried[k].image

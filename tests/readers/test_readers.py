@@ -200,3 +200,50 @@ def test_a_mirror_images_reading_is_asked_for_by_its_label(spot_mesh):
         read_all(v, f, readers=["surface (mirror)"])
     with pytest.raises(ValueError, match="no reader to run"):
         read_all(v, f, readers=["surface (mirrored)"], mirror=False)
+
+
+def test_a_start_that_gives_an_image_already_made_offers_it_and_is_decoded_once(
+    spot_mesh, monkeypatch
+):
+    """An STL soup's connectivity as given has no surface of its own, so its starts are the
+    cleaned mesh's; spot's near-tie starts cut as runner-up tips do.  Each such start offers
+    the image already made (the same object, so the same smoothing undone), the hypotheses
+    still count every start, and a decoder reads each image once as received and once at
+    most with every candidate."""
+    from meshwm.readers.surface import read_surface
+    from meshwm.watermark.extract import Decoder
+
+    v, f = spot_mesh
+    soup_v, soup_f = v[f.ravel()], np.arange(3 * len(f)).reshape(-1, 3)
+    for mv, mf in ((v, f), (soup_v, soup_f)):
+        images = read_surface(mv, mf)
+        firsts = {id(images[k]): k for k in reversed(range(len(images)))}
+        assert len(firsts) < len(images)
+        # No two image objects are the same image.
+        made = [images[k] for k in sorted(firsts.values())]
+        for i, a in enumerate(made):
+            for b in made[i + 1 :]:
+                assert not np.array_equal(a.samples, b.samples, equal_nan=True)
+    # The soup's first image is the PLY's (to the solver's rounding in another vertex order).
+    assert_allclose(images[0].samples, read_surface(v, f)[0].samples, atol=1e-9)
+
+    prepared: list[int] = []
+    original_prepare = Decoder._prepare
+
+    def prepare(self, k):
+        prepared.append(k)
+        return original_prepare(self, k)
+
+    monkeypatch.setattr(Decoder, "_prepare", prepare)
+    decoder = Decoder(soup_v, soup_f)
+    found = decoder.extract_id(key="a key it was never marked with")
+    assert found.id is None
+    # Every image offered again was decoded as its first place only.
+    images = list(decoder.images)
+    first_place = {id(image): k for k, image in reversed(list(enumerate(images)))}
+    assert set(prepared) == set(first_place.values())
+    assert len(images) > len(first_place)
+    # The hypotheses count every start the reader offers.
+    assert found.report["hypotheses"] == decoder.images.bound(
+        lambda s: decoder._decoder(s).max_hypotheses
+    )
