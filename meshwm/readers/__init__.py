@@ -71,8 +71,15 @@ _MIRROR_LABEL = " (mirrored)"
 def _mirrored(found: SampledImage | Sequence[SampledImage]) -> Sequence[SampledImage]:
     """A reader's images on the mirrored mesh, each labelled so (made as lazily as given)."""
 
+    # One labelled object per image: a reader that offers an image twice (the surface
+    # reader's starts that give one image) offers it twice labelled, for a decoder to decode
+    # once.  The images found keeps stay alive with it, so their ids stay their own.
+    labelled: dict[int, SampledImage] = {}
+
     def label(image: SampledImage) -> SampledImage:
-        return image._replace(reader=image.reader + _MIRROR_LABEL)
+        if id(image) not in labelled:
+            labelled[id(image)] = image._replace(reader=image.reader + _MIRROR_LABEL)
+        return labelled[id(image)]
 
     if isinstance(found, SampledImage):
         return (label(found),)

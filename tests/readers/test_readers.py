@@ -247,3 +247,22 @@ def test_a_start_that_gives_an_image_already_made_offers_it_and_is_decoded_once(
     assert found.report["hypotheses"] == decoder.images.bound(
         lambda s: decoder._decoder(s).max_hypotheses
     )
+
+
+def test_a_mirror_image_offered_twice_is_one_labelled_image():
+    """The mirrored readers label each image once, so an image a reader offers twice (the
+    surface reader's near-tie start of igea's mirror image cuts as its canonical start)
+    stays one object, which a decoder decodes once."""
+    from meshwm.readers import _mirrored
+    from meshwm.readers.base import LazyImages, SampledImage
+
+    made = [
+        SampledImage(samples=np.full((8, 8, 3), float(k)), hypotheses=1, reader="surface")
+        for k in range(2)
+    ]
+    offered = LazyImages(4, lambda k: made[k % 2])  # images 2 and 3 are 0 and 1 again
+    mirrored = _mirrored(offered)
+    assert [image.reader for image in mirrored] == ["surface (mirrored)"] * 4
+    assert mirrored[2] is mirrored[0] and mirrored[3] is mirrored[1]
+    assert mirrored[0] is not mirrored[1]
+    assert_array_equal(mirrored[1].samples, made[1].samples)
