@@ -250,7 +250,7 @@ def read_surface(
 
     # Starts that give an image already made (one that fell back to another's surface, a
     # near-tie start whose cut is a ranked start's) offer that image object itself, which a
-    # decoder decodes once (:meth:`meshwm.watermark.extract.Decoder`); the hypotheses still
+    # decoder decodes once (:class:`meshwm.watermark.extract.Decoder`); the hypotheses still
     # count every start.
     made: dict[tuple, SampledImage] = {}
 
