@@ -242,9 +242,10 @@ class Decoder:
         read it accepts.
         """
         tried: list[_Try] = []
-        # A reader may offer one image twice (the surface reader's starts that fell back to
-        # its first map): decoded once (as the ``k`` of its first place), its decode stands
-        # for both, and it is read again with every candidate once at most.
+        # A reader may offer one image twice (the surface reader's starts that give an image
+        # another start gave, on the mesh or its mirror image): decoded once (as the ``k`` of
+        # its first place), its decode stands for both, and it is read again with every
+        # candidate once at most.
         first_of: dict[int, int] = {}
         for k, image in enumerate(self.images):
             j = first_of.setdefault(id(image), k)
