@@ -17,7 +17,7 @@ from meshwm._digest import LastResult, arrays_key
 from meshwm.errors import MeshError
 from meshwm.mesh.edges import corner_edges_by_edge, unique_edges
 
-__all__ = ["face_components", "structure"]
+__all__ = ["face_components", "large_pieces", "structure"]
 
 
 def _radial_pairs(
@@ -343,6 +343,39 @@ def face_components(n_vertices: int, faces: NDArray[np.int64]) -> NDArray[np.int
     number = np.empty(count, dtype=np.int64)
     number[has_faces[np.argsort(first[has_faces], kind="stable")]] = np.arange(len(has_faces))
     return number[label]
+
+
+def large_pieces(
+    vertices: NDArray[np.float64], faces: NDArray[np.int64], *, least: int
+) -> list[tuple[NDArray[np.float64], NDArray[np.int64]]]:
+    """The connected pieces of a mesh that use at least ``least`` vertices, each on its own.
+
+    Pieces are joined through shared vertices (:func:`face_components`).  Each comes with its
+    own vertices (in the mesh's order) and its faces over them (in the mesh's order); the
+    largest first (by vertices), pieces of one size in the order of their first face.
+
+    Examples
+    --------
+    >>> v = np.zeros((7, 3))
+    >>> f = np.array([[0, 1, 2], [3, 4, 5], [4, 5, 6]])
+    >>> [(len(pv), pf.tolist()) for pv, pf in large_pieces(v, f, least=3)]
+    [(4, [[0, 1, 2], [1, 2, 3]]), (3, [[0, 1, 2]])]
+    """
+    faces = np.asarray(faces, dtype=np.int64)
+    vertices = np.asarray(vertices, dtype=np.float64)
+    label = face_components(len(vertices), faces)
+    if len(label) == 0:
+        return []
+    # Pieces are joined through shared vertices: each used vertex belongs to one.
+    owner = np.full(len(vertices), -1, dtype=np.int64)
+    owner[faces.reshape(-1)] = np.repeat(label, faces.shape[1])
+    sizes = np.bincount(owner[owner >= 0], minlength=int(label.max()) + 1)
+    out = []
+    for piece in sorted(np.flatnonzero(sizes >= least).tolist(), key=lambda c: -sizes[c]):
+        own = faces[label == piece]
+        index = np.unique(own)
+        out.append((vertices[index], np.searchsorted(index, own).astype(np.int64)))
+    return out
 
 
 #: The last mesh's connectivity work (:func:`_structure`), by a digest of its faces.

@@ -24,12 +24,14 @@ from meshwm._validate import DEFAULT_MAX_FACES
 from meshwm.detect import DEFAULT_FPR, decide, is_detected, mark_p_value
 from meshwm.errors import CapacityError, GridError, MeshError
 from meshwm.mesh.asset import Asset
+from meshwm.mesh.manifold import large_pieces
 from meshwm.message.mark import default_mark
 from meshwm.message.payload import PAYLOAD_BITS, format_id, id_text, parse_id
 from meshwm.metrics import surface_distance
 from meshwm.params import WatermarkParams
 from meshwm.watermark.embed import embed
 from meshwm.watermark.extract import Decoder
+from meshwm.watermark.pieces import Pieces
 
 __all__ = [
     "MIN_VERTICES_PER_BIT",
@@ -200,33 +202,49 @@ def _readers(
     max_faces: int,
     show: Progress,
     bits: int,
-) -> list[tuple[int, Decoder | None, dict[str, Any]]]:
+) -> list[tuple[int, Decoder | Pieces | None, dict[str, Any]]]:
     """One decoder per mesh (None with the reason in the row when the mesh cannot be read).
 
     A mesh too small to have been given ``bits`` bits (:data:`MIN_VERTICES_PER_BIT`) is not
     read: :func:`embed_asset` refuses such a mesh, and reading it costs the reader every
-    hypothesis it can make.
+    hypothesis it can make.  A mesh of two or more pieces that big is also read piece by
+    piece (:class:`Pieces`).
     """
-    out = []
+    out: list[tuple[int, Decoder | Pieces | None, dict[str, Any]]] = []
+    least = MIN_VERTICES_PER_BIT * bits
+
+    def make(vertices: NDArray[np.float64], faces: NDArray[np.int64]) -> Decoder:
+        return Decoder(vertices, faces, params=params, max_faces=max_faces)
+
     for k, mesh in enumerate(asset.meshes):
         row: dict[str, Any] = {"name": mesh.name, "vertices": mesh.n_vertices}
-        decoder = None
+        decoder: Decoder | Pieces | None = None
         if mesh.reason is not None:
             row["reason"] = mesh.reason
-        elif mesh.n_vertices < MIN_VERTICES_PER_BIT * bits:
+        elif mesh.n_vertices < least:
             row["reason"] = f"too small to carry a {bits}-bit payload: {mesh.n_vertices} vertices"
         else:
             label = mesh_label(asset, k)
             show(f"reading{' ' + label if label else ''}: {mesh.n_vertices} vertices")
+            vertices = asset.vertices(k)
+            whole: Decoder | None = None
             try:
-                decoder = Decoder(asset.vertices(k), mesh.faces, params=params, max_faces=max_faces)
+                whole = make(vertices, mesh.faces)
             except _MESH_ERRORS as exc:
                 row["reason"] = str(exc) or type(exc).__name__
+            decoder = whole
+            pieces = large_pieces(vertices, mesh.faces, least=least)
+            if len(pieces) > 1:
+                show(f"reading{' ' + label if label else ''}: {len(pieces)} pieces alone")
+                readings = Pieces(whole, pieces, make)
+                if len(readings):
+                    decoder = readings
+                    row.pop("reason", None)
         out.append((k, decoder, row))
     return out
 
 
-def _logo_reads(decoder: Decoder, key: str | bytes, fpr: float) -> bool:
+def _logo_reads(decoder: Decoder | Pieces, key: str | bytes, fpr: float) -> bool:
     logo = default_mark(32)
     found = decoder.extract(key=key, mark_size=32, expected=logo)
     return decide(found.report, fpr=fpr).detected
@@ -291,8 +309,9 @@ def verify_asset(
     list of dict
         ``name``, ``detected``, ``p_value``, ``ber``, ``hypotheses``, ``threshold``, ``bits``,
         ``id``/``id_text`` (what decoded, for ids), ``correlation`` (marks), ``reason`` (why
-        the mesh could not be read) and ``note`` (what the mesh carries instead, when that
-        explains an absent verdict).
+        the mesh could not be read), ``note`` (what the mesh carries instead, when that
+        explains an absent verdict) and ``piece`` (``index``, ``of``, ``vertices``: the
+        piece that read, when one of several pieces read alone, :class:`Pieces`).
     """
     show = progress or _quiet
     if mark is not None and (ident is not None or any_id):
@@ -311,6 +330,8 @@ def verify_asset(
         if seek_id:
             got = decoder.extract_id(key=key, expected=ident)
             r = got.report
+            if r.get("piece"):
+                row["piece"] = r["piece"]
             row.update(id=got.id, id_text=id_text(got.id) if got.id else None, bits=r["bits"])
             if ident is not None:
                 verdict = decide(r, fpr=fpr, found_id=got.id, expected_id=ident.hex())
@@ -339,6 +360,8 @@ def verify_asset(
                 continue
             found = decoder.extract(key=key, mark_size=expected.shape[0], expected=expected)
             r = found.report
+            if r.get("piece"):
+                row["piece"] = r["piece"]
             verdict = decide(r, fpr=fpr)
             row.update(
                 detected=verdict.detected,
@@ -402,7 +425,8 @@ def extract_asset(
         (``ber``, ``correlation``, ``p_value`` against ``expected``), ``logo``, ``drawing``
         (a mark: whether its image was taken as a drawing, ``"chosen_by"`` of
         :meth:`meshwm.watermark.Decoder.decode`: a mark whose neighbouring pixels agree as a
-        drawing's do, which a read of noise does not) and ``reason``.
+        drawing's do, which a read of noise does not), ``reason`` and ``piece`` (as for
+        :func:`verify_asset`).
     """
     show = progress or _quiet
     rows = []
@@ -433,5 +457,6 @@ def extract_asset(
 
 
 def _figures(report: Mapping[str, Any]) -> dict[str, Any]:
-    names = ("n", "reader", "hypotheses", "carriers", "ber", "correlation", "p_value", "bits")
+    names: tuple[str, ...] = ("n", "reader", "hypotheses", "carriers", "ber", "correlation")
+    names += ("p_value", "bits", *(("piece",) if report.get("piece") else ()))
     return {n: report[n] for n in names if n in report}

@@ -9,7 +9,7 @@ from numpy.testing import assert_array_equal
 from meshwm._vector import face_cross, row_norm
 from meshwm.mesh.clean import _drop_bad_faces
 from meshwm.mesh.edges import corner_edges_by_edge, unique_edges
-from meshwm.mesh.manifold import _corner_labels, face_components
+from meshwm.mesh.manifold import _corner_labels, face_components, large_pieces
 
 
 def _find(parent: list[int], i: int) -> int:
@@ -152,3 +152,29 @@ def test_one_fan_each_is_what_the_corner_groups_say_where_it_answers():
         first, second = _glued_pairs(faces)
         if _one_fan_each(faces, first, second, n):
             assert _corner_labels(faces, first, second)[0] == n
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_large_pieces_are_the_same_pieces_in_any_vertex_and_face_order(seed: int):
+    rng = np.random.default_rng(40 + seed)
+    # Three strips of 9, 14 and 5 vertices (fans over a path), one isolated vertex.
+    v, f = [], []
+    for size in (9, 14, 5):
+        start = len(v)
+        v += rng.normal(size=(size, 3)).tolist()
+        f += [[start, start + i, start + i + 1] for i in range(1, size - 1)]
+    v.append([9.0, 9.0, 9.0])
+    v, f = np.array(v), np.array(f, dtype=np.int64)
+    pieces = large_pieces(v, f, least=6)
+    assert [len(pv) for pv, _ in pieces] == [14, 9]  # the largest first; 5 is too few
+    for pv, pf in pieces:  # each piece's own faces, over its own vertices
+        assert pf.min() == 0 and pf.max() == len(pv) - 1
+    for _ in range(10):
+        order = rng.permutation(len(v))
+        moved = large_pieces(v[order], np.argsort(order)[f][rng.permutation(len(f))], least=6)
+        assert len(moved) == len(pieces)
+        for (pv, pf), (mv, mf) in zip(pieces, moved, strict=True):
+            # The same vertices and the same triangles (as position triples), in any order.
+            assert sorted(map(tuple, pv)) == sorted(map(tuple, mv))
+            assert sorted(map(sorted, pv[pf].tolist())) == sorted(map(sorted, mv[mf].tolist()))
+    assert large_pieces(v, np.zeros((0, 3), dtype=np.int64), least=1) == []

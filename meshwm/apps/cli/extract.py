@@ -144,10 +144,21 @@ def _informed(
 
 
 def _describe(row: dict[str, Any], args: argparse.Namespace) -> str:
-    from meshwm.message.payload import format_id
 
     if row["kind"] is None:
         return f"nothing read ({row['reason']})"
+    piece = row.get("piece")
+    alone = (
+        f" (read in piece {piece['index']} of {piece['of']}, {piece['vertices']} vertices, alone)"
+        if piece
+        else ""
+    )
+    return _what(row, args) + alone
+
+
+def _what(row: dict[str, Any], args: argparse.Namespace) -> str:
+    from meshwm.message.payload import format_id
+
     if row["kind"] == "id":
         text = f"id {format_id(row['id'])}"
         if row.get("reader") == "informed (registry)":

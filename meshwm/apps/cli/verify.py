@@ -184,6 +184,11 @@ def _verdict(row: dict[str, Any], what: str) -> str:
         details.append(f"BER {row['ber']:.4f}, p-value {row['p_value']:.3g}")
     if row.get("reason"):
         details.append(row["reason"])
+    if row.get("piece"):
+        piece = row["piece"]
+        details.append(
+            f"read in piece {piece['index']} of {piece['of']} ({piece['vertices']} vertices) alone"
+        )
     if row.get("reader") == "informed (registry)":
         found = row.get("informed") or {}
         details.append(

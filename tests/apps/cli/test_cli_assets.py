@@ -22,6 +22,7 @@ import trimesh
 from meshwm.apps.cli import EXIT_PIPE, main
 from meshwm.mesh.asset import read_asset
 from meshwm.mesh.io import read_mesh, write_mesh
+from meshwm.watermark import Decoder
 
 ROOT = Path(__file__).parents[3]
 SPOT = ROOT / "assets" / "spot.ply"
@@ -295,6 +296,75 @@ def test_a_hex_id_typed_without_0x_is_pointed_out(tmp_path, capsys):
         ": this mesh carries the id 0x00000000c0ffee42; an id without 0x is text: did you "
         "mean --id 0xC0FFEE42?"
     )
+
+
+# --- a kit joined into one mesh ---------------------------------------------------------------
+
+
+def _boulder() -> tuple[np.ndarray, np.ndarray]:
+    """An unmarked bumpy sphere with more vertices (3698) than a prop of the kit (2562)."""
+    sphere = trimesh.creation.uv_sphere(count=[44, 44])
+    v = np.array(sphere.vertices)
+    k = np.random.default_rng(11).normal(size=(6, 3))
+    v *= (1 + 0.15 * np.sin(v @ k.T).sum(axis=1))[:, None]
+    return v * [2.0, 1.6, 1.8], np.array(sphere.faces)
+
+
+def _joined_kit(made, path: Path, seed: int | None = None) -> Path:
+    """The marked kit's crate and screw joined with a larger unmarked boulder into one mesh, as
+    a modeller's join does (each moved to its place), in one PLY; with ``seed``, then a random
+    similarity and a random vertex and face order."""
+    kit = read_asset(made["out"]["kit.glb"])
+    parts = [_boulder()]
+    for name, shift in (("Crate", [-5, 0, 1]), ("Screw", [0, 3, 0])):
+        k = kit.mesh_index(name)
+        parts.append((kit.vertices(k) + shift, kit.meshes[k].faces))
+    starts = np.cumsum([0] + [len(v) for v, _ in parts])
+    v = np.concatenate([v for v, _ in parts])
+    f = np.concatenate([f + s for (_, f), s in zip(parts, starts, strict=False)])
+    if seed is not None:
+        rng = np.random.default_rng(seed)
+        turn = trimesh.transformations.random_rotation_matrix(rng.random(3))[:3, :3]
+        v = v @ turn.T * 10 ** rng.uniform(-2, 2) + rng.uniform(-100, 100, 3)
+        order = rng.permutation(len(v))
+        v, f = v[order], np.argsort(order)[f][rng.permutation(len(f))]
+    write_mesh(path, v, f)
+    return path
+
+
+def test_a_prop_joined_with_others_into_one_mesh_is_read_alone(made, tmp_path, capsys):
+    joined = _joined_kit(made, tmp_path / "joined.ply")
+    argv = ["verify", str(joined), "--key", KEY, "--id", "crate-42"]
+    code, out, _ = run([*argv, "--json"], capsys)
+    crate = json.loads(out)
+    # The whole mesh's readers map its largest piece (the boulder) and read the radial carrier
+    # over every piece: the crate reads only alone (the screw is too small to be read).
+    assert code == 0 and crate["detected"] and crate["id_text"] == "crate-42"
+    assert crate["piece"] == {"index": 2, "of": 2, "vertices": 2562}
+    # Every reading's hypotheses count, not only the one that read: more than the whole's.
+    whole = Decoder(*read_mesh(joined)).hypotheses
+    assert crate["hypotheses"] > whole
+    code, out, _ = run(argv, capsys)
+    assert out == (
+        f'{joined}: id "crate-42" (0x63726174652d3432) present (BER 0.0000, p-value '
+        f"{crate['p_value']:.3g}; read in piece 2 of 2 (2562 vertices) alone)\n"
+    )
+
+
+@pytest.mark.slow
+def test_a_joined_mesh_under_another_key_carries_no_id(made, tmp_path, capsys):
+    joined = _joined_kit(made, tmp_path / "joined.ply")
+    code, out, _ = run(["verify", str(joined), "--key", "another key", "--any-id"], capsys)
+    assert code == 1 and out == f"{joined}: an id absent\n"
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("seed", range(3))
+def test_the_joined_prop_reads_in_any_pose_and_order(made, tmp_path, capsys, seed):
+    joined = _joined_kit(made, tmp_path / "joined.ply", seed=seed)
+    code, out, _ = run(["verify", str(joined), "--key", KEY, "--id", "crate-42", "--json"], capsys)
+    report = json.loads(out)
+    assert code == 0 and report["detected"] and report["piece"]["vertices"] == 2562
 
 
 # --- messages that explain a mismatch ------------------------------------------------------
