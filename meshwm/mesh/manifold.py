@@ -7,6 +7,8 @@ edge; :func:`structure` keeps the last result for the same faces.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import igl
 import numpy as np
 import scipy.sparse as sp
@@ -17,7 +19,7 @@ from meshwm._digest import LastResult, arrays_key
 from meshwm.errors import MeshError
 from meshwm.mesh.edges import corner_edges_by_edge, unique_edges
 
-__all__ = ["face_components", "large_pieces", "structure"]
+__all__ = ["Piece", "face_components", "large_pieces", "structure"]
 
 
 def _radial_pairs(
@@ -345,21 +347,38 @@ def face_components(n_vertices: int, faces: NDArray[np.int64]) -> NDArray[np.int
     return number[label]
 
 
+class Piece(NamedTuple):
+    """A connected piece of a mesh on its own (:func:`large_pieces`).
+
+    Attributes
+    ----------
+    used : (k,) int64 ndarray
+        The mesh's vertices the piece uses, ascending.
+    vertices : (k, 3) float64 ndarray
+        Their positions.
+    faces : (m, 3) int64 ndarray
+        The piece's faces over its own vertices, in the mesh's order.
+    """
+
+    used: NDArray[np.int64]
+    vertices: NDArray[np.float64]
+    faces: NDArray[np.int64]
+
+
 def large_pieces(
     vertices: NDArray[np.float64], faces: NDArray[np.int64], *, least: int
-) -> list[tuple[NDArray[np.float64], NDArray[np.int64]]]:
+) -> list[Piece]:
     """The connected pieces of a mesh that use at least ``least`` vertices, each on its own.
 
-    Pieces are joined through shared vertices (:func:`face_components`).  Each comes with its
-    own vertices (in the mesh's order) and its faces over them (in the mesh's order); the
-    largest first (by vertices), pieces of one size in the order of their first face.
+    Pieces are joined through shared vertices (:func:`face_components`); the largest first (by
+    vertices), pieces of one size in the order of their first face.
 
     Examples
     --------
     >>> v = np.zeros((7, 3))
     >>> f = np.array([[0, 1, 2], [3, 4, 5], [4, 5, 6]])
-    >>> [(len(pv), pf.tolist()) for pv, pf in large_pieces(v, f, least=3)]
-    [(4, [[0, 1, 2], [1, 2, 3]]), (3, [[0, 1, 2]])]
+    >>> [(p.used.tolist(), p.faces.tolist()) for p in large_pieces(v, f, least=3)]
+    [([3, 4, 5, 6], [[0, 1, 2], [1, 2, 3]]), ([0, 1, 2], [[0, 1, 2]])]
     """
     faces = np.asarray(faces, dtype=np.int64)
     vertices = np.asarray(vertices, dtype=np.float64)
@@ -374,7 +393,7 @@ def large_pieces(
     for piece in sorted(np.flatnonzero(sizes >= least).tolist(), key=lambda c: -sizes[c]):
         own = faces[label == piece]
         index = np.unique(own)
-        out.append((vertices[index], np.searchsorted(index, own).astype(np.int64)))
+        out.append(Piece(index, vertices[index], np.searchsorted(index, own).astype(np.int64)))
     return out
 
 

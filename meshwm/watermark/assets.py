@@ -29,9 +29,8 @@ from meshwm.message.mark import default_mark
 from meshwm.message.payload import PAYLOAD_BITS, format_id, id_text, parse_id
 from meshwm.metrics import surface_distance
 from meshwm.params import WatermarkParams
-from meshwm.watermark.embed import embed
 from meshwm.watermark.extract import Decoder
-from meshwm.watermark.pieces import Pieces
+from meshwm.watermark.pieces import Pieces, embed_by_piece
 
 __all__ = [
     "MIN_VERTICES_PER_BIT",
@@ -167,7 +166,7 @@ def embed_asset(
         show(f"marking{' ' + label if label else ''}: {mesh.n_vertices} vertices")
         vertices = asset.vertices(k)
         try:
-            result = embed(
+            new, report = embed_by_piece(
                 vertices,
                 mesh.faces,
                 None if payload is not None else mark,
@@ -175,18 +174,17 @@ def embed_asset(
                 ident=payload,
                 params=params,
                 max_faces=max_faces,
-                distances=False,
+                least=MIN_VERTICES_PER_BIT * bits,
             )
         except _MESH_ERRORS as exc:
             row["reason"] = str(exc) or type(exc).__name__
             continue
-        report = {n: v for n, v in result.report.items() if n not in ("vertices", "faces", "id")}
         row.update(marked=True, **report)
         if distances:
             show(f"measuring the distance to the input{' of ' + label if label else ''}")
-            d = surface_distance(vertices, mesh.faces, result.vertices, mesh.faces)
+            d = surface_distance(vertices, mesh.faces, new, mesh.faces)
             row.update(mrms_rel=d.rms / d.diagonal, hausdorff_rel=d.hausdorff / d.diagonal)
-        moved[k] = result.vertices
+        moved[k] = new
     if not any(row["marked"] for row in rows):
         reasons = "; ".join(f"{r['name']}: {r['reason']}" for r in rows)
         capacity = all("too small" in r["reason"] or "does not carry" in r["reason"] for r in rows)
@@ -236,7 +234,7 @@ def _readers(
             pieces = large_pieces(vertices, mesh.faces, least=least)
             if len(pieces) > 1:
                 show(f"reading{' ' + label if label else ''}: {len(pieces)} pieces alone")
-                readings = Pieces(whole, pieces, make)
+                readings = Pieces(whole, [(p.vertices, p.faces) for p in pieces], make)
                 if len(readings):
                     decoder = readings
                     row.pop("reason", None)

@@ -1,17 +1,20 @@
-"""A mesh of several pieces read whole, then piece by piece (a marked asset joined to others)."""
+"""A mesh of several pieces: marked piece by piece, read whole and then piece by piece."""
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from meshwm.errors import CapacityError, GridError, MeshError
+from meshwm.mesh.manifold import face_components, large_pieces
+from meshwm.params import WatermarkParams
+from meshwm.watermark.embed import embed
 from meshwm.watermark.extract import Decoder, Extracted, ExtractedId
 
-__all__ = ["Pieces"]
+__all__ = ["Pieces", "embed_by_piece"]
 
 #: The errors that leave a piece unread without ending the others.
 _PIECE_ERRORS = (CapacityError, GridError, MeshError, np.linalg.LinAlgError)
@@ -107,3 +110,77 @@ class Pieces:
             drawn = [r for r in reads if r[1].report.get("chosen_by") == "drawing"]
             where, found = (drawn or reads)[0]
         return found._replace(report=self._report(found.report, where))
+
+
+def embed_by_piece(
+    vertices: NDArray[np.float64],
+    faces: NDArray[np.int64],
+    mark: NDArray | None,
+    *,
+    key: str | bytes,
+    ident: bytes | None,
+    params: WatermarkParams | None,
+    max_faces: int,
+    least: int,
+) -> tuple[NDArray[np.float64], dict[str, Any]]:
+    """One mesh marked: whole (:func:`meshwm.watermark.embed`), or, where it joins two or
+    more pieces of at least ``least`` vertices, each of those pieces alone with the same
+    payload, so that each carries it wherever it goes (split off, or joined to other objects:
+    :class:`~meshwm.watermark.pieces.Pieces` reads each piece alone); smaller pieces are kept
+    as they are.  The report is the largest marked piece's, with ``pieces`` (``marked``,
+    ``of``: how many of the big pieces carry the payload, ``smaller``: the pieces too small)
+    and ``pieces_unmarked`` (each big piece's reason for not carrying it).
+
+    Raises
+    ------
+    CapacityError, GridError, MeshError
+        The whole mesh's, or the first big piece's when none could be marked.
+    """
+    pieces = large_pieces(vertices, faces, least=least)
+    if len(pieces) < 2:
+        result = embed(
+            vertices,
+            faces,
+            mark,
+            key=key,
+            ident=ident,
+            params=params,
+            max_faces=max_faces,
+            distances=False,
+        )
+        return result.vertices, _figures_of(result.report)
+    new = np.array(vertices, dtype=np.float64)
+    reports, reasons, first = [], [], None
+    for number, piece in enumerate(pieces, start=1):
+        try:
+            result = embed(
+                piece.vertices,
+                piece.faces,
+                mark,
+                key=key,
+                ident=ident,
+                params=params,
+                max_faces=max_faces,
+                distances=False,
+            )
+        except _PIECE_ERRORS as exc:
+            first = first or exc
+            reasons.append(f"piece {number} ({len(piece.vertices)} vertices): {exc}")
+            continue
+        new[piece.used] = result.vertices
+        reports.append(result.report)
+    if not reports:
+        assert first is not None
+        raise first
+    report = _figures_of(reports[0])
+    smaller = int(face_components(len(vertices), faces).max()) + 1 - len(pieces)
+    report["pieces"] = {"marked": len(reports), "of": len(pieces), "smaller": smaller}
+    if reasons:
+        report["pieces_unmarked"] = reasons
+    report.pop("components_passed_through", None)  # each piece was marked alone
+    return new, report
+
+
+def _figures_of(report: Mapping[str, Any]) -> dict[str, Any]:
+    """An embedding's report as a mesh's row takes it (less what the row says itself)."""
+    return {n: v for n, v in report.items() if n not in ("vertices", "faces", "id")}

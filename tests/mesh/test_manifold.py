@@ -166,14 +166,15 @@ def test_large_pieces_are_the_same_pieces_in_any_vertex_and_face_order(seed: int
     v.append([9.0, 9.0, 9.0])
     v, f = np.array(v), np.array(f, dtype=np.int64)
     pieces = large_pieces(v, f, least=6)
-    assert [len(pv) for pv, _ in pieces] == [14, 9]  # the largest first; 5 is too few
-    for pv, pf in pieces:  # each piece's own faces, over its own vertices
-        assert pf.min() == 0 and pf.max() == len(pv) - 1
+    assert [len(p.vertices) for p in pieces] == [14, 9]  # the largest first; 5 is too few
+    for p in pieces:  # each piece's own faces, over its own vertices
+        assert p.faces.min() == 0 and p.faces.max() == len(p.vertices) - 1
+        assert np.array_equal(p.vertices, v[p.used])
     for _ in range(10):
         order = rng.permutation(len(v))
         moved = large_pieces(v[order], np.argsort(order)[f][rng.permutation(len(f))], least=6)
         assert len(moved) == len(pieces)
-        for (pv, pf), (mv, mf) in zip(pieces, moved, strict=True):
+        for (_, pv, pf), (_, mv, mf) in zip(pieces, moved, strict=True):
             # The same vertices and the same triangles (as position triples), in any order.
             assert sorted(map(tuple, pv)) == sorted(map(tuple, mv))
             assert sorted(map(sorted, pv[pf].tolist())) == sorted(map(sorted, mv[mf].tolist()))

@@ -373,6 +373,14 @@ def _mesh_line(row: dict[str, Any]) -> str:
             f", MRMS {100 * row['mrms_rel']:.4f}%, Hausdorff {100 * row['hausdorff_rel']:.3f}% "
             "of the bbox diagonal"
         )
+    pieces = row.get("pieces")
+    if pieces:  # each big piece marked alone
+        text += f"; marked piece by piece: {pieces['marked']} of its {pieces['of']} pieces"
+        text += " big enough for the payload carry it each"
+        if pieces["smaller"]:
+            text += f", {_count(pieces['smaller'], 'smaller piece')} unchanged"
+        for reason in row.get("pieces_unmarked", []):
+            text += f"; not marked: {reason}"
     parts, detached = row.get("components_passed_through", 0), row.get("faces_detached", 0)
     if parts:  # the surface map carries the mark in the largest part alone
         text += f"; {_count(parts, 'smaller part')} kept off the surface map (moved by the "

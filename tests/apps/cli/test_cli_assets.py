@@ -9,6 +9,7 @@ only reads them.
 from __future__ import annotations
 
 import io
+import itertools
 import json
 import os
 import subprocess
@@ -365,6 +366,38 @@ def test_the_joined_prop_reads_in_any_pose_and_order(made, tmp_path, capsys, see
     code, out, _ = run(["verify", str(joined), "--key", KEY, "--id", "crate-42", "--json"], capsys)
     report = json.loads(out)
     assert code == 0 and report["detected"] and report["piece"]["vertices"] == 2562
+
+
+def test_a_mesh_of_several_big_pieces_is_marked_piece_by_piece(tmp_path, capsys):
+    # One object of three pieces, as a joined export gives: two that carry an id, a box too small.
+    rock, box = bumpy(3), trimesh.creation.box()
+    parts = [_boulder(), (rock.vertices - np.array([5, 0, 1]), np.array(rock.faces))]
+    parts.append((box.vertices + np.array([0, 3, 0]), np.array(box.faces)))
+    starts = np.cumsum([0] + [len(v) for v, _ in parts])
+    v = np.concatenate([v for v, _ in parts])
+    f = np.concatenate([f + s for (_, f), s in zip(parts, starts, strict=False)])
+    source, marked = tmp_path / "three.ply", tmp_path / "marked.ply"
+    write_mesh(source, v, f)
+    argv = ["--key", KEY, "--id", "pieces-1"]
+    code, out, err = run(["embed", str(source), "-o", str(marked), *argv, "--json"], capsys)
+    assert code == 0, err
+    row = json.loads(out)["meshes"][0]
+    assert row["marked"] and row["pieces"] == {"marked": 2, "of": 2, "smaller": 1}
+    mv, mf = read_mesh(marked)
+    assert np.array_equal(mf, f) and len(mv) == len(v)
+    np.testing.assert_array_equal(mv[starts[2] :], v[starts[2] :])  # the box as it was
+    # Each big piece moved, and carries the id on its own: split off, each verifies.
+    for a, b in itertools.pairwise(starts[:3]):
+        assert np.abs(mv[a:b] - v[a:b]).max() > 0
+        alone = tmp_path / f"piece_{a}.ply"
+        write_mesh(alone, mv[a:b], f[(f >= a).all(axis=1) & (f < b).all(axis=1)] - a)
+        code, out, _ = run(["verify", str(alone), *argv], capsys)
+        assert code == 0 and " present " in out, out
+    code, out, _ = run(["verify", str(marked), *argv], capsys)
+    assert code == 0 and " present " in out
+    code, out, _ = run(["embed", str(source), "-o", str(tmp_path / "again.ply"), *argv], capsys)
+    assert "marked piece by piece: 2 of its 2 pieces big enough for the payload carry it" in out
+    assert "1 smaller piece unchanged" in out
 
 
 # --- messages that explain a mismatch ------------------------------------------------------
