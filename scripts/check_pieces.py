@@ -39,7 +39,7 @@ from meshwm.detect import decide
 from meshwm.mesh.asset import read_asset
 from meshwm.metrics import bounding_box_diagonal
 from meshwm.watermark import Decoder, embed
-from meshwm.watermark.assets import verify_asset
+from meshwm.watermark.assets import embed_asset, verify_asset
 
 ATTACKS: dict[str, list[tuple[str, dict[str, Any]]]] = {
     "none": [],
@@ -65,18 +65,24 @@ def joined(
     return np.concatenate([v, ov]), np.concatenate([f, of + len(v)])
 
 
-def _verify(v: np.ndarray, f: np.ndarray, key: str) -> tuple[str, float]:
+def _asset(v: np.ndarray, f: np.ndarray) -> Any:
+    """``(v, f)`` written as one PLY and read back as a user's file."""
     import trimesh
 
     fd, path = tempfile.mkstemp(suffix=".ply")
     os.close(fd)
     try:
         trimesh.Trimesh(v, f, process=False).export(path)
-        t0 = time.perf_counter()
-        row = verify_asset(read_asset(path), key=key, ident=IDENT, fpr=FPR)[0]
-        seconds = time.perf_counter() - t0
+        return read_asset(path)
     finally:
         os.remove(path)
+
+
+def _verify(v: np.ndarray, f: np.ndarray, key: str) -> tuple[str, float]:
+    asset = _asset(v, f)
+    t0 = time.perf_counter()
+    row = verify_asset(asset, key=key, ident=IDENT, fpr=FPR)[0]
+    seconds = time.perf_counter() - t0
     if not row["detected"]:
         return "no", seconds
     piece = row.get("piece")
@@ -89,14 +95,31 @@ def _whole_only(v: np.ndarray, f: np.ndarray) -> str:
     return "ok" if verdict.detected else "no"
 
 
-def run_mesh(name: str) -> dict[str, Any]:
+def _split(v: np.ndarray, f: np.ndarray, start: int, stop: int) -> tuple[np.ndarray, np.ndarray]:
+    """The piece of ``(v, f)`` on vertices ``start .. stop - 1``, on its own."""
+    own = f[(f >= start).all(axis=1) & (f < stop).all(axis=1)]
+    return v[start:stop], own - start
+
+
+def run_mesh(name: str, joined_input: bool = False) -> dict[str, Any]:
     v, f = load(name)
-    marked = embed(v, f, key=KEY, ident=IDENT, distances=False)
     partner = partner_of(name)
-    jv, jf = joined(marked.vertices, f, load(partner))
     row: dict[str, Any] = {"mesh": name, "V": len(v), "partner": partner, "cells": {}}
+    if joined_input:
+        jv, jf = joined(v, f, load(partner))
+        marks = embed_asset(_asset(jv, jf), key=KEY, ident=IDENT)
+        found = marks.meshes[0]
+        row["pieces"] = found.get("pieces")
+        row["mrms"], row["hausdorff"] = found["mrms_rel"], found["hausdorff_rel"]
+        jv = marks.asset.positions  # the file's rows, in the order written
+        assert jv.shape == (len(v) + len(load(partner)[0]), 3)
+        row["cells"]["mesh alone"] = _verify(*_split(jv, jf, 0, len(v)), KEY)
+        row["cells"]["partner alone"] = _verify(*_split(jv, jf, len(v), len(jv)), KEY)
+    else:
+        marked = embed(v, f, key=KEY, ident=IDENT, distances=False)
+        jv, jf = joined(marked.vertices, f, load(partner))
+        row["whole only"] = _whole_only(jv, jf)
     row["partner_V"] = len(jv) - len(v)
-    row["whole only"] = _whole_only(jv, jf)
     for label, steps in ATTACKS.items():
         av, af = jv, jf
         for attack, options in steps:
@@ -106,14 +129,22 @@ def run_mesh(name: str) -> dict[str, Any]:
     return row
 
 
-def table(rows: list[dict[str, Any]]) -> str:
-    head = "| mesh | vertices | joined to (vertices) | whole only | "
-    head += " | ".join(ATTACKS) + " | wrong key |"
-    lines = [head, "|" + "---|" * (len(ATTACKS) + 5)]
+def table(rows: list[dict[str, Any]], joined_input: bool = False) -> str:
+    labels = list(rows[0]["cells"])
+    first = "pieces marked | MRMS | Hausdorff" if joined_input else "whole only"
+    head = f"| mesh | vertices | joined to (vertices) | {first} | "
+    head += " | ".join(labels) + " | wrong key |"
+    lines = [head, "|" + "---|" * (len(labels) + (7 if joined_input else 5))]
     for r in rows:
         cells = [f"{c} ({s:.0f} s)" for c, s in (*r["cells"].values(), r["wrong key"])]
+        if joined_input:
+            p = r["pieces"]
+            marked = f"{p['marked']} of {p['of']}" if p else "whole"
+            front = f"{marked} | {r['mrms']:.4%} | {r['hausdorff']:.3%}"
+        else:
+            front = r["whole only"]
         lines.append(
-            f"| {r['mesh']} | {r['V']} | {r['partner']} ({r['partner_V']}) | {r['whole only']} | "
+            f"| {r['mesh']} | {r['V']} | {r['partner']} ({r['partner_V']}) | {front} | "
             + " | ".join(cells)
             + " |"
         )
@@ -124,12 +155,18 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     add_run_options(parser)
     parser.set_defaults(meshes=DEV)
+    parser.add_argument(
+        "--joined-input", action="store_true", help="join before marking (one mesh of two pieces)"
+    )
     args = parser.parse_args()
     names = run_names(parser, args)
     t0 = time.perf_counter()
     with ProcessPoolExecutor(args.jobs) as pool:
-        rows = list(pool.map(run_mesh, names))
-    text = table(rows) + f"\n\n{time.perf_counter() - t0:.0f} s in all, {args.jobs} jobs\n"
+        rows = list(pool.map(run_mesh, names, [args.joined_input] * len(names)))
+    text = (
+        table(rows, args.joined_input)
+        + f"\n\n{time.perf_counter() - t0:.0f} s in all, {args.jobs} jobs\n"
+    )
     print(text)
     if args.out is not None:
         args.out.write_text(text)
