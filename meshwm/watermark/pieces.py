@@ -11,7 +11,7 @@ from numpy.typing import NDArray
 from meshwm.errors import CapacityError, GridError, MeshError
 from meshwm.mesh.manifold import face_components, large_pieces
 from meshwm.params import WatermarkParams
-from meshwm.watermark.embed import embed
+from meshwm.watermark.embed import Embedded, embed
 from meshwm.watermark.extract import Decoder, Extracted, ExtractedId
 
 __all__ = ["Pieces", "embed_by_piece"]
@@ -126,7 +126,7 @@ def embed_by_piece(
     """One mesh marked: whole (:func:`meshwm.watermark.embed`), or, where it joins two or
     more pieces of at least ``least`` vertices, each of those pieces alone with the same
     payload, so that each carries it wherever it goes (split off, or joined to other objects:
-    :class:`~meshwm.watermark.pieces.Pieces` reads each piece alone); smaller pieces are kept
+    :class:`Pieces` reads each piece alone); smaller pieces are kept
     as they are.  The report is the largest marked piece's, with ``pieces`` (``marked``,
     ``of``: how many of the big pieces carry the payload, ``smaller``: the pieces too small)
     and ``pieces_unmarked`` (each big piece's reason for not carrying it).
@@ -136,33 +136,21 @@ def embed_by_piece(
     CapacityError, GridError, MeshError
         The whole mesh's, or the first big piece's when none could be marked.
     """
+
+    def mark_one(v: NDArray[np.float64], f: NDArray[np.int64]) -> Embedded:
+        return embed(
+            v, f, mark, key=key, ident=ident, params=params, max_faces=max_faces, distances=False
+        )
+
     pieces = large_pieces(vertices, faces, least=least)
     if len(pieces) < 2:
-        result = embed(
-            vertices,
-            faces,
-            mark,
-            key=key,
-            ident=ident,
-            params=params,
-            max_faces=max_faces,
-            distances=False,
-        )
+        result = mark_one(vertices, faces)
         return result.vertices, _figures_of(result.report)
     new = np.array(vertices, dtype=np.float64)
     reports, reasons, first = [], [], None
     for number, piece in enumerate(pieces, start=1):
         try:
-            result = embed(
-                piece.vertices,
-                piece.faces,
-                mark,
-                key=key,
-                ident=ident,
-                params=params,
-                max_faces=max_faces,
-                distances=False,
-            )
+            result = mark_one(piece.vertices, piece.faces)
         except _PIECE_ERRORS as exc:
             first = first or exc
             reasons.append(f"piece {number} ({len(piece.vertices)} vertices): {exc}")

@@ -144,7 +144,6 @@ def _informed(
 
 
 def _describe(row: dict[str, Any], args: argparse.Namespace) -> str:
-
     if row["kind"] is None:
         return f"nothing read ({row['reason']})"
     piece = row.get("piece")
