@@ -65,16 +65,21 @@ FPR = 1e-6
 Attack = Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]
 
 
-def _glb(v: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def through_file(v: np.ndarray, f: np.ndarray, suffix: str, read: Callable[[str], Any]) -> Any:
+    """``(v, f)`` written by trimesh to a temporary ``suffix`` file, read back by ``read``."""
     import trimesh
 
-    fd, path = tempfile.mkstemp(suffix=".glb")
+    fd, path = tempfile.mkstemp(suffix=suffix)
     os.close(fd)
     try:
         trimesh.Trimesh(v, f, process=False).export(path)
-        return read_mesh(path)
+        return read(path)
     finally:
         os.remove(path)
+
+
+def _glb(v: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    return through_file(v, f, ".glb", read_mesh)
 
 
 def _registered(name: str, **options: Any) -> Attack | None:

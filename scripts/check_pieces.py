@@ -19,9 +19,7 @@ the verification follow.  ``whole only`` is what the whole mesh's readers give a
 from __future__ import annotations
 
 import argparse
-import os
 import sys
-import tempfile
 import time
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
@@ -32,7 +30,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from check_keep import DEV, FPR, IDENT, KEY, add_run_options, load, run_names
+from check_keep import DEV, FPR, IDENT, KEY, add_run_options, load, run_names, through_file
 
 from meshwm.attacks import apply_attack
 from meshwm.detect import decide
@@ -67,15 +65,7 @@ def joined(
 
 def _asset(v: np.ndarray, f: np.ndarray) -> Any:
     """``(v, f)`` written as one PLY and read back as a user's file."""
-    import trimesh
-
-    fd, path = tempfile.mkstemp(suffix=".ply")
-    os.close(fd)
-    try:
-        trimesh.Trimesh(v, f, process=False).export(path)
-        return read_asset(path)
-    finally:
-        os.remove(path)
+    return through_file(v, f, ".ply", read_asset)
 
 
 def _verify(v: np.ndarray, f: np.ndarray, key: str) -> tuple[str, float]:
