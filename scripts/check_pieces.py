@@ -95,19 +95,20 @@ def run_mesh(name: str, joined_input: bool = False) -> dict[str, Any]:
     v, f = load(name)
     partner = partner_of(name)
     row: dict[str, Any] = {"mesh": name, "V": len(v), "partner": partner, "cells": {}}
+    other = load(partner)
     if joined_input:
-        jv, jf = joined(v, f, load(partner))
+        jv, jf = joined(v, f, other)
         marks = embed_asset(_asset(jv, jf), key=KEY, ident=IDENT)
         found = marks.meshes[0]
         row["pieces"] = found.get("pieces")
         row["mrms"], row["hausdorff"] = found["mrms_rel"], found["hausdorff_rel"]
         jv = marks.asset.positions  # the file's rows, in the order written
-        assert jv.shape == (len(v) + len(load(partner)[0]), 3)
+        assert jv.shape == (len(v) + len(other[0]), 3)
         row["cells"]["mesh alone"] = _verify(*_split(jv, jf, 0, len(v)), KEY)
         row["cells"]["partner alone"] = _verify(*_split(jv, jf, len(v), len(jv)), KEY)
     else:
         marked = embed(v, f, key=KEY, ident=IDENT, distances=False)
-        jv, jf = joined(marked.vertices, f, load(partner))
+        jv, jf = joined(marked.vertices, f, other)
         row["whole only"] = _whole_only(jv, jf)
     row["partner_V"] = len(jv) - len(v)
     for label, steps in ATTACKS.items():
