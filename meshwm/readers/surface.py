@@ -73,45 +73,63 @@ def _unsmoothed(positions: NDArray[np.float64], faces: NDArray[np.int64]) -> Uns
 
 def _unsmoothed_once(
     positions: NDArray[np.float64], faces: NDArray[np.int64], memo: dict | None
-) -> Unsmoothed:
-    """:func:`_unsmoothed`, computed once for a mesh and its mirror image within one memo
-    (:func:`meshwm.mesh.clean.shared_memo`: the readers of one received mesh and of its mirror
-    image, :data:`meshwm.readers.MIRRORED`).  Both undoings commute with a reflection (the
-    uniform step depends on the connectivity alone, MeshLab's on the angles), and the mirror
-    image's surface is the mesh's reflected, position for position and face for face turned
-    over, so its positions undone are the mesh's reflected."""
+) -> tuple[Unsmoothed, NDArray[np.float64] | None]:
+    """:func:`_unsmoothed`, computed and kept once for a mesh and its mirror image within one
+    memo (:func:`meshwm.mesh.clean.shared_memo`: the readers of one received mesh and of its
+    mirror image, :data:`meshwm.readers.MIRRORED`), and the reflection to apply to what is
+    sampled of them (None: none).
+
+    Both undoings commute with a reflection (the uniform step depends on the connectivity
+    alone, MeshLab's on the angles), and the mirror image's surface is the mesh's reflected,
+    position for position and face for face turned over, so its positions undone are the
+    mesh's reflected; the samples of them through a matrix are the samples of the mesh's
+    reflected, bit for bit (a reflection negates a coordinate, and a sum of negated terms is
+    the sum negated).  Kept once, not once reflected: at 537k vertices the reflected copy was
+    284 MB, a sixth of an unmarked read's memory."""
     if memo is None:
-        return _unsmoothed(positions, faces)
+        return _unsmoothed(positions, faces), None
     key = ("unsmoothed", *arrays_key(positions, faces))
-    if key not in memo:
-        mirror = np.ascontiguousarray(faces[:, ::-1])
-        image = ("unsmoothed", *arrays_key(positions * MIRROR, mirror))
-        if image in memo:
-            memo[key] = [(label, x * MIRROR) for label, x in memo[image]]
-        else:
-            memo[key] = _unsmoothed(positions, faces)
+    if key in memo:
+        return memo[key], None
+    mirror = np.ascontiguousarray(faces[:, ::-1])
+    image = ("unsmoothed", *arrays_key(positions * MIRROR, mirror))
+    if image in memo:
+        return memo[image], MIRROR
+    memo[key] = _unsmoothed(positions, faces)
     found: Unsmoothed = memo[key]
-    return found
+    return found, None
 
 
-def _smoothed_faces(surface: Surface, faces: NDArray[np.int64]) -> NDArray[np.int64]:
-    """The faces a smoothing of the received mesh ran over near the surface, on its positions:
-    every received face that touches the surface (a fin standing on it, which the cleaning
-    takes off, still pulled its edge's two vertices along its border), but those that use a
+def _smoothed_faces(
+    surface_faces: NDArray[np.int64],
+    inverse: NDArray[np.int64],
+    used: NDArray[np.bool_],
+    faces: NDArray[np.int64],
+) -> NDArray[np.int64]:
+    """The faces a smoothing of the received mesh ran over near a surface (its faces,
+    ``inverse`` and ``used``, :class:`~meshwm.gim.surface.Surface`), on its positions: every
+    received face that touches the surface (a fin standing on it, which the cleaning takes
+    off, still pulled its edge's two vertices along its border), but those that use a
     position twice; other components' faces, which no step couples to it, are left out."""
     if faces.shape[1] != 3:
-        return surface.faces
-    over = surface.inverse[faces]
+        return surface_faces
+    over = inverse[faces]
     keep = (over[:, 0] != over[:, 1]) & (over[:, 1] != over[:, 2]) & (over[:, 0] != over[:, 2])
-    keep &= surface.used[over].any(axis=1)
+    keep &= used[over].any(axis=1)
     return over[keep]
 
 
-def _undone(found: Unsmoothed, image: SurfaceImage) -> Unsmoothed:
-    """The image of each of :func:`_unsmoothed`'s position sets."""
+def _undone(
+    found: tuple[Unsmoothed, NDArray[np.float64] | None], image: SurfaceImage
+) -> Unsmoothed:
+    """The image of each of :func:`_unsmoothed`'s position sets, reflected where
+    :func:`_unsmoothed_once` says."""
+    sets, reflection = found
     out: Unsmoothed = []
-    for label, x in found:
+    for label, x in sets:
         samples = np.asarray(image.matrix @ x).reshape(image.samples.shape)
+        if reflection is not None:
+            samples *= reflection
         samples[~image.covered] = np.nan
         out.append((label, samples))
     return out
@@ -221,31 +239,38 @@ def read_surface(
                 surfaces[(variant, SURFACE_RANKS[0])] = first
         return surfaces[(variant, SURFACE_RANKS[0])]
 
+    # Each connectivity's canonical map is kept (its other starts are remapped from it);
+    # another start's map only while its sizes are sampled (the decoder asks for the images
+    # in order), then let go: its images keep only what undoing a smoothing needs, which the
+    # starts of a connectivity share.  Kept, every start's cut mesh and UVs were about 0.5 GB
+    # of an unmarked 537k-vertex mesh's read (15 maps with the mirror image's).
+    recent: dict[tuple[str, int], Surface] = {}
+
     def surface_at(variant: str, rank: int) -> Surface:
-        if (variant, rank) not in surfaces:
-            base = base_of(variant)
-            if base is first and variant != "merged":
-                # No surface of its own: the cleaned one's, start for start (made once).
-                surfaces[(variant, rank)] = surface_at("merged", rank)
-                return surfaces[(variant, rank)]
+        base = base_of(variant)
+        if rank == SURFACE_RANKS[0]:
+            return base
+        if (variant, rank) not in recent:
+            recent.clear()
             try:
                 hint = restart if variant == "merged" else None
-                surfaces[(variant, rank)] = remap_surface(
-                    base, base.positions, rank=rank, like=hint
-                )
+                recent[(variant, rank)] = remap_surface(base, base.positions, rank=rank, like=hint)
             except MeshError:
-                surfaces[(variant, rank)] = first  # no such start: the first again
-        return surfaces[(variant, rank)]
+                recent[(variant, rank)] = first  # no such start: the first again
+        return recent[(variant, rank)]
 
     # The starts and sizes of one connectivity share its positions and faces, so they undo
     # the same smoothing: once per connectivity.
-    undone: dict[tuple[int, int], tuple[Surface, Unsmoothed]] = {}
+    undone: dict[tuple[int, int], tuple[tuple, tuple[Unsmoothed, NDArray | None]]] = {}
 
-    def positions_undone(surface: Surface, variant: str) -> Unsmoothed:
-        key = (id(surface.positions), id(surface.faces))
-        if key not in undone:  # the surface is kept with it, so the ids stay its own
-            over = _smoothed_faces(surface, meshes[variant][1])
-            undone[key] = (surface, _unsmoothed_once(surface.positions, over, memo))
+    def positions_undone(
+        over: tuple[NDArray, NDArray, NDArray, NDArray], variant: str
+    ) -> tuple[Unsmoothed, NDArray | None]:
+        positions, surface_faces, inverse, used = over
+        key = (id(positions), id(surface_faces))
+        if key not in undone:  # the arrays are kept with it, so the ids stay their own
+            smoothed = _smoothed_faces(surface_faces, inverse, used, meshes[variant][1])
+            undone[key] = (over, _unsmoothed_once(positions, smoothed, memo))
         return undone[key][1]
 
     # Starts that give an image already made (one that fell back to another's surface, a
@@ -253,13 +278,21 @@ def read_surface(
     # decoder decodes once (:class:`meshwm.watermark.extract.Decoder`); the hypotheses still
     # count every start.
     made: dict[tuple, SampledImage] = {}
+    # Each start's image of each size, for a connectivity with no surface of its own (the
+    # cleaned one's, start for start, without mapping its starts again).
+    offered: dict[tuple[str, int, int], SampledImage] = {}
 
     def make(k: int) -> SampledImage:
         variant, rank = starts[k // len(SURFACE_SIZES)]
+        size = SURFACE_SIZES[k % len(SURFACE_SIZES)]
+        if variant != "merged" and base_of(variant) is first:
+            if ("merged", rank, size) in offered:
+                return offered[("merged", rank, size)]
+            variant = "merged"
         surface = surface_at(variant, rank)
         if surface is first:
             variant = "merged"  # a start that fell back to the first surface
-        image = sample_surface(surface, size=SURFACE_SIZES[k % len(SURFACE_SIZES)])
+        image = sample_surface(surface, size=size)
         # The same samples through the same matrix over the same positions and faces: the
         # same image, and the same smoothing undone (``positions_undone``'s key).
         key = (
@@ -269,15 +302,16 @@ def read_surface(
                 image.samples, image.matrix.indptr, image.matrix.indices, image.matrix.data
             ),
         )
-        if key in made:
-            return made[key]
-        made[key] = SampledImage(
-            samples=image.samples,
-            hypotheses=1,
-            reader="surface",
-            smoothing_undone=lambda: _undone(positions_undone(surface, variant), image),
-            primary=rank == SURFACE_RANKS[0],  # each connectivity's canonical start
-        )
+        if key not in made:
+            over = (surface.positions, surface.faces, surface.inverse, surface.used)
+            made[key] = SampledImage(
+                samples=image.samples,
+                hypotheses=1,
+                reader="surface",
+                smoothing_undone=lambda: _undone(positions_undone(over, variant), image),
+                primary=rank == SURFACE_RANKS[0],  # each connectivity's canonical start
+            )
+        offered.setdefault((variant, rank, size), made[key])
         return made[key]
 
     return LazyImages(len(starts) * len(SURFACE_SIZES), make)

@@ -266,3 +266,40 @@ def test_a_mirror_image_offered_twice_is_one_labelled_image():
     assert mirrored[2] is mirrored[0] and mirrored[3] is mirrored[1]
     assert mirrored[0] is not mirrored[1]
     assert_array_equal(mirrored[1].samples, made[1].samples)
+
+
+def test_a_runner_up_starts_map_is_let_go_once_its_images_are_made(spot_mesh, monkeypatch):
+    """Each start's cut mesh and UVs are as large as the mesh: an unmarked mesh's read maps
+    every start, so only each connectivity's canonical map is kept, and the images of the
+    others still undo a smoothing as a fresh reading does."""
+    import gc
+    import weakref
+
+    from meshwm.attacks import apply_attack
+    from meshwm.readers import surface as module
+
+    v, f = spot_mesh
+    sv, sf = apply_attack("meshlab_laplacian", v, f, iterations=1)
+    maps: list[weakref.ref] = []
+    real = module.remap_surface
+
+    def remap(*args, **kwargs):
+        surface = real(*args, **kwargs)
+        maps.append(weakref.ref(surface.map.uv))
+        return surface
+
+    monkeypatch.setattr(module, "remap_surface", remap)
+    images = module.read_surface(sv, sf)
+    made = list(images)
+    gc.collect()
+    alive = [ref() is not None for ref in maps]
+    assert len(maps) >= 3 and not any(alive[:-1])  # the last start's, until the next one
+    # The first runner-up start's image, undone after its map was let go, against a reading
+    # that offers that start alone and is asked for it first.
+    k = len(module.SURFACE_SIZES)  # the second start's first size
+    assert not made[k].primary
+    got = made[k].smoothing_undone()
+    fresh = module.read_surface(sv, sf)[k].smoothing_undone()
+    assert [label for label, _ in got] == [label for label, _ in fresh] and len(got) > 1
+    for (_, a), (_, b) in zip(got, fresh, strict=True):
+        assert_array_equal(a, b)
