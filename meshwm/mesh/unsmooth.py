@@ -80,21 +80,29 @@ def cotangent_weights(
         the boundary.
     """
     v, f = check_mesh(vertices, faces)
-    n = len(v)
-    rows, cols, vals = [], [], []
+    n, m = len(v), len(f)
+    # The entries a face corner gives, both ways, filled in place in the order the sum of a
+    # pair's two entries has always been taken in (corner by corner, ``(a, b)`` then
+    # ``(b, a)``), with indices as narrow as the sparse matrix keeps them: at 537k vertices
+    # the lists and their copies peaked at 0.42 GB for a 0.08 GB matrix.
+    index = np.int32 if n < np.iinfo(np.int32).max else np.int64
+    rows = np.empty(6 * m, dtype=index)
+    cols = np.empty(6 * m, dtype=index)
+    vals = np.empty(6 * m)
     for j in range(3):
         a, b, c = f[:, j], f[:, (j + 1) % 3], f[:, (j + 2) % 3]
         e1, e2 = v[b] - v[c], v[a] - v[c]
         norms = np.linalg.norm(e1, axis=1) * np.linalg.norm(e2, axis=1)
         cos = np.einsum("ij,ij->i", e1, e2) / np.maximum(norms, 1e-300)
+        del e1, e2, norms
         angle = np.arccos(np.clip(cos, -1.0, 1.0)).astype(np.float32)
-        weight = np.tan(np.float32(np.pi / 2) - angle).astype(np.float64)
-        rows += [a, b]
-        cols += [b, a]
-        vals += [weight, weight]
-    w = sp.csr_matrix(
-        (np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(n, n)
-    )
+        at = 2 * j * m
+        rows[at : at + m], rows[at + m : at + 2 * m] = a, b
+        cols[at : at + m], cols[at + m : at + 2 * m] = b, a
+        vals[at : at + m] = np.tan(np.float32(np.pi / 2) - angle)
+        vals[at + m : at + 2 * m] = vals[at : at + m]
+    w = sp.csr_matrix((vals, (rows, cols)), shape=(n, n))
+    del rows, cols, vals
     on, line = boundary if boundary is not None else _boundary(f, n)
     if on.any():
         # VCG restarts a boundary vertex's sum at its own position (weight 1), then adds its
