@@ -135,6 +135,39 @@ def _undone(
     return out
 
 
+class _Undoings:
+    """The positions of a received mesh's connectivities with a smoothing undone, made once
+    for each (the starts and sizes of one connectivity share its positions and faces) and
+    kept once for a mesh and its mirror image (:func:`_unsmoothed_once`).
+
+    Parameters
+    ----------
+    meshes : mapping
+        Each connectivity's received vertices and faces, by name (the faces a smoothing ran
+        over).
+    memo : dict or None
+        The memo shared with the mirror image's reader.
+    """
+
+    def __init__(self, meshes: dict[str, tuple[NDArray, NDArray]], memo: dict | None) -> None:
+        self._meshes = meshes
+        self._memo = memo
+        self._done: dict[tuple[int, int], tuple[tuple, tuple[Unsmoothed, NDArray | None]]] = {}
+
+    def of(
+        self, over: tuple[NDArray, NDArray, NDArray, NDArray], variant: str
+    ) -> tuple[Unsmoothed, NDArray | None]:
+        """The positions undone over a surface's ``(positions, faces, inverse, used)``, of
+        connectivity ``variant``, and the reflection to sample them with."""
+        positions, surface_faces, inverse, used = over
+        key = (id(positions), id(surface_faces))
+        if key not in self._done:  # the arrays are kept with it, so the ids stay their own
+            faces = self._meshes[variant][1]
+            smoothed = _smoothed_faces(surface_faces, inverse, used, faces)
+            self._done[key] = (over, _unsmoothed_once(positions, smoothed, self._memo))
+        return self._done[key][1]
+
+
 def read_surface(
     vertices: NDArray,
     faces: NDArray,
@@ -259,19 +292,7 @@ def read_surface(
                 recent[(variant, rank)] = first  # no such start: the first again
         return recent[(variant, rank)]
 
-    # The starts and sizes of one connectivity share its positions and faces, so they undo
-    # the same smoothing: once per connectivity.
-    undone: dict[tuple[int, int], tuple[tuple, tuple[Unsmoothed, NDArray | None]]] = {}
-
-    def positions_undone(
-        over: tuple[NDArray, NDArray, NDArray, NDArray], variant: str
-    ) -> tuple[Unsmoothed, NDArray | None]:
-        positions, surface_faces, inverse, used = over
-        key = (id(positions), id(surface_faces))
-        if key not in undone:  # the arrays are kept with it, so the ids stay their own
-            smoothed = _smoothed_faces(surface_faces, inverse, used, meshes[variant][1])
-            undone[key] = (over, _unsmoothed_once(positions, smoothed, memo))
-        return undone[key][1]
+    undoings = _Undoings(meshes, memo)
 
     # Starts that give an image already made (one that fell back to another's surface, a
     # near-tie start whose cut is a ranked start's) offer that image object itself, which a
@@ -294,7 +315,7 @@ def read_surface(
             variant = "merged"  # a start that fell back to the first surface
         image = sample_surface(surface, size=size)
         # The same samples through the same matrix over the same positions and faces: the
-        # same image, and the same smoothing undone (``positions_undone``'s key).
+        # same image, and the same smoothing undone (:class:`_Undoings`' key).
         key = (
             id(surface.positions),
             id(surface.faces),
@@ -308,7 +329,7 @@ def read_surface(
                 samples=image.samples,
                 hypotheses=1,
                 reader="surface",
-                smoothing_undone=lambda: _undone(positions_undone(over, variant), image),
+                smoothing_undone=lambda: _undone(undoings.of(over, variant), image),
                 primary=rank == SURFACE_RANKS[0],  # each connectivity's canonical start
             )
         offered.setdefault((variant, rank, size), made[key])
