@@ -294,8 +294,8 @@ def test_a_runner_up_starts_map_is_let_go_once_its_images_are_made(spot_mesh, mo
     gc.collect()
     alive = [ref() is not None for ref in maps]
     assert len(maps) >= 3 and not any(alive[:-1])  # the last start's, until the next one
-    # The first runner-up start's image, undone after its map was let go, against a reading
-    # that offers that start alone and is asked for it first.
+    # The first runner-up start's image, undone after its map was let go, against a fresh
+    # reading's same image, asked for before any other (its map made and still held).
     k = len(module.SURFACE_SIZES)  # the second start's first size
     assert not made[k].primary
     got = made[k].smoothing_undone()
