@@ -15,6 +15,7 @@ from _attack_checks import _same_mesh
 from numpy.testing import assert_array_equal
 
 from meshwm.attacks.seams import (
+    material_patches,
     merge_load,
     split_seam_paths,
     split_seams,
@@ -162,3 +163,30 @@ def test_merge_load_merges_cow_duplicate_pair():
     loaded = trimesh.load(COW)
     assert_array_equal(w, loaded.vertices)
     assert_array_equal(g, loaded.faces)
+
+
+@pytest.mark.parametrize("count", [1, 2, 7])
+def test_material_patches_are_connected_and_cover_the_mesh(spot_mesh, count):
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    _, f = spot_mesh
+    for seed in range(3):
+        patch = material_patches(f, count=count, seed=seed)
+        assert patch.shape == (len(f),) and np.bincount(patch).tolist().count(0) == 0
+        assert len(np.bincount(patch)) == count
+        for p in range(count):
+            faces = f[patch == p]
+            mesh = trimesh.Trimesh(np.zeros((f.max() + 1, 3)), faces, process=False)
+            adjacency = mesh.face_adjacency
+            ones = np.ones(len(adjacency))
+            graph = coo_matrix((ones, (adjacency[:, 0], adjacency[:, 1])), shape=(len(faces),) * 2)
+            assert connected_components(graph, directed=False)[0] == 1
+    assert_array_equal(material_patches(f, count=5, seed=3), material_patches(f, count=5, seed=3))
+    assert not np.array_equal(material_patches(f, count=5, seed=3), material_patches(f, count=5))
+
+
+@pytest.mark.parametrize("count", [0, 2.5, 10**9])
+def test_bad_patch_counts_raise(spot_mesh, count):
+    with pytest.raises(ValueError, match="count must be an integer"):
+        material_patches(spot_mesh[1], count=count)
