@@ -125,7 +125,8 @@ def verify_file(
     """One row: path, detected, p_value, ber, id, seconds, error, meshes (never raises).
 
     ``detected``: some mesh of the file carries what was sought; the figures (``p_value``,
-    ``ber``, ``id``, ``note``, ``reason``, ``piece``, ...) are that mesh's, or the closest one's.
+    ``ber``, ``id``, ``note``, ``reason``, ``piece``, ``together``, ...) are that mesh's, or
+    the closest one's.
     ``progress`` is told which mesh is being read.
     """
     t0 = time.perf_counter()
@@ -156,7 +157,7 @@ def verify_file(
             _informed(asset, meshes, check, check.registry, progress)
         best = _best(meshes)
         row.update({k: best[k] for k in _TOP if k in best})
-        for name in ("note", "reason", "piece"):
+        for name in ("note", "reason", "piece", "together"):
             if name in best:
                 row[name] = best[name]
         row["detected"] = any(m["detected"] for m in meshes)

@@ -14,23 +14,24 @@ is reported as such, not just as "absent".
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any, NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
 
 from meshwm._validate import DEFAULT_MAX_FACES
-from meshwm.detect import DEFAULT_FPR, decide, is_detected, mark_p_value
+from meshwm.detect import DEFAULT_FPR, decide
 from meshwm.errors import CapacityError, GridError, MeshError
 from meshwm.mesh.asset import Asset
 from meshwm.mesh.manifold import large_pieces
 from meshwm.message.mark import default_mark
-from meshwm.message.payload import PAYLOAD_BITS, format_id, id_text, parse_id
+from meshwm.message.payload import PAYLOAD_BITS, id_text
 from meshwm.metrics import surface_distance
 from meshwm.params import WatermarkParams
 from meshwm.watermark.extract import Decoder
 from meshwm.watermark.pieces import Pieces, embed_by_piece
+from meshwm.watermark.verdicts import verify_read
 
 __all__ = [
     "MIN_VERTICES_PER_BIT",
@@ -193,13 +194,17 @@ def embed_asset(
     return AssetMarks(asset.with_positions(moved), rows)
 
 
+class _Setting(NamedTuple):
+    """How the meshes of a document are read: for ``bits`` payload bits."""
+
+    params: WatermarkParams | None
+    max_faces: int
+    show: Progress
+    bits: int
+
+
 def _readers(
-    asset: Asset,
-    *,
-    params: WatermarkParams | None,
-    max_faces: int,
-    show: Progress,
-    bits: int,
+    asset: Asset, setting: _Setting
 ) -> list[tuple[int, Decoder | Pieces | None, dict[str, Any]]]:
     """One decoder per mesh (None with the reason in the row when the mesh cannot be read).
 
@@ -209,6 +214,7 @@ def _readers(
     piece (:class:`Pieces`).
     """
     out: list[tuple[int, Decoder | Pieces | None, dict[str, Any]]] = []
+    params, max_faces, show, bits = setting
     least = MIN_VERTICES_PER_BIT * bits
 
     def make(vertices: NDArray[np.float64], faces: NDArray[np.int64]) -> Decoder:
@@ -242,28 +248,50 @@ def _readers(
     return out
 
 
-def _logo_reads(decoder: Decoder | Pieces, key: str | bytes, fpr: float) -> bool:
-    logo = default_mark(32)
-    found = decoder.extract(key=key, mark_size=32, expected=logo)
-    return decide(found.report, fpr=fpr).detected
+def _together(
+    asset: Asset, found: Sequence[bool], setting: _Setting
+) -> tuple[list[int], Decoder] | None:
+    """The file's meshes in which nothing was ``found`` (by mesh), read as one, when two or more.
 
-
-def _id_note(found: str | None, wanted: bytes | None, asked: str | None) -> str | None:
-    """Why an id verdict is absent, when the mesh says more than "nothing here"."""
-    if found is None:
+    One marked mesh saved as several (separated by material or by loose parts into objects,
+    an exporter that writes an object per material) carries its mark in no part alone: read
+    together, the parts are the marked mesh with its seams split, which the readers zip
+    (:mod:`meshwm.readers.surface`).  Parts too small to be read alone join in; meshes whose
+    positions cannot be read (a ``reason`` of the document's) do not.  A plain
+    :class:`~meshwm.watermark.extract.Decoder` (not :class:`Pieces`: a kit's props, joined,
+    are its pieces, each read alone already).
+    """
+    members = [k for k, mesh in enumerate(asset.meshes) if mesh.reason is None and not found[k]]
+    total = sum(asset.meshes[k].n_vertices for k in members)
+    if len(members) < 2 or total < MIN_VERTICES_PER_BIT * setting.bits:
         return None
-    shown = format_id(found)
-    if wanted is not None and asked is not None and not asked.lower().startswith("0x"):
-        try:
-            as_hex = parse_id("0x" + asked)
-        except ValueError:
-            as_hex = None
-        if as_hex is not None and as_hex.hex() == found:
-            return (
-                f"this mesh carries the id {shown}; an id without 0x is text: did you mean "
-                f"--id 0x{asked}?"
-            )
-    return f"this mesh carries another id: {shown}"
+    setting.show(f"reading {len(members)} meshes together: {total} vertices")
+    vertices = [asset.vertices(k) for k in members]
+    offsets = np.cumsum([0] + [len(v) for v in vertices[:-1]])
+    faces = [asset.meshes[k].faces + o for k, o in zip(members, offsets, strict=True)]
+    try:
+        decoder = Decoder(
+            np.concatenate(vertices),
+            np.concatenate(faces),
+            params=setting.params,
+            max_faces=setting.max_faces,
+        )
+    except _MESH_ERRORS:
+        return None
+    return members, decoder
+
+
+def _joined(
+    asset: Asset, rows: list[dict[str, Any]], members: list[int], read: dict[str, Any]
+) -> None:
+    """Each of ``members``' rows becomes the reading of them together (in place)."""
+    together = {
+        "meshes": [asset.meshes[k].name for k in members],
+        "vertices": sum(asset.meshes[k].n_vertices for k in members),
+    }
+    for k in members:
+        rows[k] = {"name": rows[k]["name"], "vertices": rows[k]["vertices"], **read}
+        rows[k]["together"] = together
 
 
 def verify_asset(
@@ -316,86 +344,31 @@ def verify_asset(
         raise ValueError("verify a mark or an id, not both")
     seek_id = ident is not None or any_id
     expected = mark if mark is not None else default_mark(32)
-    rows = []
     bits = PAYLOAD_BITS if seek_id else min(PAYLOAD_BITS, expected.size)  # ids are looked for
-    for _, decoder, row in _readers(
-        asset, params=params, max_faces=max_faces, show=show, bits=bits
-    ):
-        rows.append(row)
+
+    def read(decoder: Decoder | Pieces | None, row: dict[str, Any]) -> dict[str, Any]:
         row.update(detected=False, p_value=None, ber=None, id=None, id_text=None)
-        if decoder is None:
-            continue
-        if seek_id:
-            got = decoder.extract_id(key=key, expected=ident)
-            r = got.report
-            if r.get("piece"):
-                row["piece"] = r["piece"]
-            row.update(id=got.id, id_text=id_text(got.id) if got.id else None, bits=r["bits"])
-            if ident is not None:
-                verdict = decide(r, fpr=fpr, found_id=got.id, expected_id=ident.hex())
-                row.update(p_value=r["p_value"], ber=r["ber"])
-                row.update(hypotheses=verdict.hypotheses, threshold=verdict.threshold)
-                row["detected"] = verdict.detected
-            else:
-                row["detected"] = got.id is not None
-                row["hypotheses"] = r["hypotheses"]
-            if not row["detected"]:
-                note = _id_note(got.id, ident, ident_text)
-                if note is None and _logo_reads(decoder, key, fpr):
-                    note = "this mesh carries the bundled logo, not an id: verify without --id"
-                if note:
-                    row["note"] = note
-        else:
-            # An id first: its CRC settles at the first image that decodes, where a mark read
-            # from an id-marked mesh is never clean and would try every image the reader has.
-            got = decoder.extract_id(key=key)
-            if got.id is not None:
-                row.update(id=got.id, id_text=id_text(got.id))
-                row["note"] = (
-                    f"this mesh carries an id, not a mark: {format_id(got.id)}; verify with "
-                    "--id or --any-id"
-                )
-                continue
-            found = decoder.extract(key=key, mark_size=expected.shape[0], expected=expected)
-            r = found.report
-            if r.get("piece"):
-                row["piece"] = r["piece"]
-            verdict = decide(r, fpr=fpr)
-            row.update(
-                detected=verdict.detected,
-                p_value=r["p_value"],
-                ber=r["ber"],
-                correlation=r["correlation"],
-                bits=r["bits"],
-                hypotheses=verdict.hypotheses,
-                threshold=verdict.threshold,
+        if decoder is not None:
+            verify_read(
+                decoder,
+                row,
+                key=key,
+                ident=ident,
+                any_id=any_id,
+                fpr=fpr,
+                ident_text=ident_text,
+                expected=None if seek_id else expected,
             )
-            if not verdict.detected:
-                note = _too_little_ink(expected, fpr=fpr, hypotheses=verdict.hypotheses)
-                if note:
-                    row["note"] = note
-        if not row["detected"] and r.get("bits_read") == 0 and "note" not in row:
-            row["note"] = _NOTHING_READ
+        return row
+
+    setting = _Setting(params, max_faces, show, bits)
+    rows = [read(decoder, row) for _, decoder, row in _readers(asset, setting)]
+    joined = _together(asset, [row["detected"] for row in rows], setting)
+    if joined is not None:
+        together = read(joined[1], {})
+        if together["detected"]:
+            _joined(asset, rows, joined[0], together)
     return rows
-
-
-def _too_little_ink(mark: NDArray, *, fpr: float, hypotheses: int) -> str | None:
-    """Why a mark can never verify, if it cannot: so little ink (or paper) that even a read
-    of every bit is what another drawing with as many dots gives by chance
-    (:func:`meshwm.detect.mark_p_value`)."""
-    bits = mark.ravel()
-    best = mark_p_value(bits, bits, np.ones(bits.size))
-    if is_detected(best, fpr=fpr, hypotheses=hypotheses):
-        return None
-    ink = int(bits.sum())
-    return (
-        f"a mark with {ink} of its {bits.size} pixels inked cannot be told from other drawings "
-        f"even read whole (p {best:.3g} at best): it needs more ink and paper both"
-    )
-
-
-#: Why a verdict's p-value is 1: every image read every bit at zero confidence.
-_NOTHING_READ = "no image of this mesh read a bit of it (no slot, or reads at chance)"
 
 
 def extract_asset(
@@ -427,30 +400,38 @@ def extract_asset(
         :func:`verify_asset`).
     """
     show = progress or _quiet
-    rows = []
-    bits = min(PAYLOAD_BITS, mark_size * mark_size)
-    for _, decoder, row in _readers(
-        asset, params=params, max_faces=max_faces, show=show, bits=bits
-    ):
-        rows.append(row)
+    compare = expected
+    if compare is None and mark_size == 32:
+        compare = default_mark(32)
+
+    def read(decoder: Decoder | Pieces | None, row: dict[str, Any]) -> tuple[dict, bool]:
+        """The row, and whether an id or the mark compared with was found."""
         row.update(kind=None, id=None, id_text=None)
         if decoder is None:
-            continue
+            return row, False
         got = decoder.extract_id(key=key)
         if got.id is not None:
             row.update(kind="id", id=got.id, id_text=id_text(got.id), **_figures(got.report))
-            continue
-        compare = expected
-        if compare is None and mark_size == 32:
-            compare = default_mark(32)
+            return row, True
         found = decoder.extract(key=key, mark_size=mark_size, expected=compare)
         row.update(kind="mark", mark=found.mark, mark_size=mark_size, **_figures(found.report))
         row["drawing"] = found.report["chosen_by"] == "drawing"
+        detected = compare is not None and decide(found.report, fpr=fpr).detected
         if expected is None:
             for name in ("ber", "correlation", "p_value", "bits"):
                 row.pop(name, None)
             if compare is not None:
-                row["logo"] = decide(found.report, fpr=fpr).detected
+                row["logo"] = detected
+        return row, detected
+
+    setting = _Setting(params, max_faces, show, min(PAYLOAD_BITS, mark_size * mark_size))
+    reads = [read(decoder, row) for _, decoder, row in _readers(asset, setting)]
+    rows = [row for row, _ in reads]
+    joined = _together(asset, [found for _, found in reads], setting)
+    if joined is not None:
+        together, found = read(joined[1], {})
+        if found:
+            _joined(asset, rows, joined[0], together)
     return rows
 
 

@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from meshwm.apps.cli import options
-from meshwm.apps.cli.output import EXIT_OK, check_png, rounded
+from meshwm.apps.cli.output import EXIT_OK, check_png, rounded, together_text
 
 __all__ = ["HELP", "NAME", "add_parser", "run"]
 
@@ -152,6 +152,8 @@ def _describe(row: dict[str, Any], args: argparse.Namespace) -> str:
         if piece
         else ""
     )
+    if row.get("together"):
+        alone = f" ({together_text(row['together'])})"
     return _what(row, args) + alone
 
 

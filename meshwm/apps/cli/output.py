@@ -6,7 +6,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-__all__ = ["EXIT_ABSENT", "EXIT_ERROR", "EXIT_OK", "check_png", "rounded"]
+__all__ = ["EXIT_ABSENT", "EXIT_ERROR", "EXIT_OK", "check_png", "rounded", "together_text"]
 
 #: Success (for ``verify``: the mark is present).
 EXIT_OK = 0
@@ -43,3 +43,12 @@ def check_png(
             if path.samefile(source):
                 hint = "" if force is None else "; use --force"
                 raise ValueError(f"{path}: would overwrite the input{hint}")
+
+
+def together_text(joined: dict[str, Any]) -> str:
+    """How a mesh read as one with others of its file says so (a row's ``together``)."""
+    others = len(joined["meshes"]) - 1
+    return (
+        f"read as one mesh with the file's {others} other mesh{'es' if others > 1 else ''}, "
+        f"{joined['vertices']} vertices"
+    )

@@ -14,7 +14,7 @@ from pathlib import Path
 from typing import Any
 
 from meshwm.apps.cli import options
-from meshwm.apps.cli.output import EXIT_ABSENT, EXIT_OK, rounded
+from meshwm.apps.cli.output import EXIT_ABSENT, EXIT_OK, rounded, together_text
 
 __all__ = ["HELP", "NAME", "add_parser", "run"]
 
@@ -189,6 +189,8 @@ def _verdict(row: dict[str, Any], what: str) -> str:
         details.append(
             f"read in piece {piece['index']} of {piece['of']} ({piece['vertices']} vertices) alone"
         )
+    if row.get("together"):
+        details.append(together_text(row["together"]))
     if row.get("reader") == "informed (registry)":
         found = row.get("informed") or {}
         details.append(

@@ -352,6 +352,36 @@ def test_a_prop_joined_with_others_into_one_mesh_is_read_alone(made, tmp_path, c
     )
 
 
+def test_a_prop_separated_into_meshes_is_read_as_one(made, tmp_path, capsys):
+    """The marked crate separated into three glTF meshes (one node each, as an exporter writes
+    an object per material: the border vertices written once per part, float32)."""
+    kit = read_asset(made["out"]["kit.glb"])
+    k = kit.mesh_index("Crate")
+    v, f = kit.vertices(k), kit.meshes[k].faces
+    part = np.digitize(v[f].mean(axis=1)[:, 2], np.quantile(v[:, 2], [0.3, 0.6]))
+    scene = trimesh.Scene()
+    for p in range(3):
+        piece = trimesh.Trimesh(v, f[part == p], process=False)
+        piece.remove_unreferenced_vertices()
+        scene.add_geometry(piece, node_name=f"crate_{p}", geom_name=f"crate_{p}")
+    separated = tmp_path / "separated.glb"
+    separated.write_bytes(scene.export(file_type="glb"))
+    parts = read_asset(separated).meshes
+    assert [m.name for m in parts] == ["crate_0", "crate_1", "crate_2"]
+    code, out, _ = run(["verify", str(separated), "--key", KEY, "--id", "crate-42"], capsys)
+    assert code == 0
+    lines = out.splitlines()
+    assert lines[0] == f'{separated}: id "crate-42" (0x63726174652d3432) present in 3 of 3 meshes'
+    total = sum(m.n_vertices for m in parts)
+    for line, mesh in zip(lines[1:], parts, strict=True):
+        assert line.startswith(f'  {separated} [{mesh.name}]: id "crate-42"')
+        assert line.endswith(f"read as one mesh with the file's 2 other meshes, {total} vertices)")
+    code, out, _ = run(["extract", str(separated), "--key", KEY, "--json"], capsys)
+    rows = json.loads(out)["meshes"]
+    assert code == 0 and [r["id_text"] for r in rows] == ["crate-42"] * 3
+    assert rows[0]["together"] == {"meshes": [m.name for m in parts], "vertices": total}
+
+
 @pytest.mark.slow
 def test_a_joined_mesh_under_another_key_carries_no_id(made, tmp_path, capsys):
     joined = _joined_kit(made, tmp_path / "joined.ply")
