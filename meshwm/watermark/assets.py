@@ -257,16 +257,20 @@ def _together(
     an exporter that writes an object per material) carries its mark in no part alone: read
     together, the parts are the marked mesh with its seams split, which the readers zip
     (:mod:`meshwm.readers.surface`).  Parts too small to be read alone join in; meshes whose
-    positions cannot be read (a ``reason`` of the document's) do not.  A plain
-    :class:`~meshwm.watermark.extract.Decoder` (not :class:`Pieces`: a kit's props, joined,
-    are its pieces, each read alone already).
+    positions cannot be read (a ``reason`` of the document's) do not.  Not read together:
+    meshes that were each read alone and share no position (a kit of props, whose mesh
+    joined would be read as they were, piece by piece).  A plain
+    :class:`~meshwm.watermark.extract.Decoder` (not :class:`Pieces`, for the same reason).
     """
     members = [k for k, mesh in enumerate(asset.meshes) if mesh.reason is None and not found[k]]
+    least = MIN_VERTICES_PER_BIT * setting.bits
     total = sum(asset.meshes[k].n_vertices for k in members)
-    if len(members) < 2 or total < MIN_VERTICES_PER_BIT * setting.bits:
+    if len(members) < 2 or total < least:
+        return None
+    vertices = [asset.vertices(k) for k in members]
+    if min(asset.meshes[k].n_vertices for k in members) >= least and not _touching(vertices):
         return None
     setting.show(f"reading {len(members)} meshes together: {total} vertices")
-    vertices = [asset.vertices(k) for k in members]
     offsets = np.cumsum([0] + [len(v) for v in vertices[:-1]])
     faces = [asset.meshes[k].faces + o for k, o in zip(members, offsets, strict=True)]
     try:
@@ -279,6 +283,16 @@ def _together(
     except _MESH_ERRORS:
         return None
     return members, decoder
+
+
+def _touching(vertices: list[NDArray[np.float64]]) -> bool:
+    """Whether two of the meshes have a vertex at exactly the same position (a border between
+    parts of one mesh, written once for each)."""
+    owner = np.repeat(np.arange(len(vertices)), [len(v) for v in vertices])
+    _, first, inverse = np.unique(
+        np.concatenate(vertices), axis=0, return_index=True, return_inverse=True
+    )
+    return bool(np.any(owner[first][inverse.ravel()] != owner))
 
 
 def _joined(

@@ -13,7 +13,7 @@ import pytest
 
 from meshwm.attacks.seams import material_patches
 from meshwm.mesh.asset import read_asset
-from meshwm.watermark import embed
+from meshwm.watermark import Decoder, embed
 from meshwm.watermark.assets import MIN_VERTICES_PER_BIT, extract_asset, verify_asset
 
 KEY = "separated-key"
@@ -92,3 +92,35 @@ def test_only_the_meshes_not_read_alone_are_read_together(marked, spot_mesh, tmp
     assert all(row["detected"] for row in rows)
     assert "together" not in rows[0]
     assert rows[1]["together"]["meshes"] == rows[2]["together"]["meshes"] == ["half0", "half1"]
+
+
+def _setting():
+    from meshwm.watermark.assets import _Setting
+
+    return _Setting(None, 10**7, lambda _: None, 256)
+
+
+def test_which_meshes_are_read_together(spot_mesh, tmp_path):
+    """Parts sharing border positions are; two big meshes apart (a kit's props, each read
+    alone) are not; a part too small to be read alone always joins."""
+    from meshwm.watermark.assets import _together
+
+    v, f = spot_mesh
+    whole = np.zeros(len(f), dtype=np.int64)
+    aside = np.array([3.0, 0.0, 0.0])
+    tetra = np.eye(4, 3) + aside, np.array([[0, 1, 2], [0, 2, 3], [0, 3, 1], [1, 3, 2]])
+    cases = {
+        "halves": ([("half", v, f, material_patches(f, count=2, seed=11))], [0, 1]),
+        "apart": ([("a", v, f, whole), ("b", v + aside, f, whole)], None),
+        "small": ([("a", v, f, whole), ("s", *tetra, whole[:4])], [0, 1]),
+    }
+    for name, (meshes, members) in cases.items():
+        path = tmp_path / f"{name}.obj"
+        write_objects(path, meshes)
+        asset = read_asset(path)
+        joined = _together(asset, [False] * len(asset.meshes), _setting())
+        assert (joined and joined[0]) == members, name
+        if members:
+            assert isinstance(joined[1], Decoder)
+        # Nothing is read together once a mesh has been found.
+        assert _together(asset, [True] + [False] * (len(asset.meshes) - 1), _setting()) is None
