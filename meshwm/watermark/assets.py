@@ -9,7 +9,9 @@ one), :class:`~meshwm.errors.CapacityError` from the marker, a mesh the map cann
 positions the format stores compressed.
 
 Reading explains what it finds: a mark sought in a mesh that carries an id (and the reverse)
-is reported as such, not just as "absent".
+is reported as such, not just as "absent" (:mod:`meshwm.watermark.verdicts`).  The meshes in
+which nothing was found are then read together, as one mesh: a marked mesh saved as several
+objects carries its mark in no part alone.
 """
 
 from __future__ import annotations
@@ -368,7 +370,6 @@ def verify_asset(
                 row,
                 key=key,
                 ident=ident,
-                any_id=any_id,
                 fpr=fpr,
                 ident_text=ident_text,
                 expected=None if seek_id else expected,

@@ -20,6 +20,9 @@ from meshwm.watermark.pieces import Pieces
 
 __all__ = ["verify_read"]
 
+#: Why a verdict's p-value is 1: every image read every bit at zero confidence.
+_NOTHING_READ = "no image of this mesh read a bit of it (no slot, or reads at chance)"
+
 
 def _logo_reads(decoder: Decoder | Pieces, key: str | bytes, fpr: float) -> bool:
     logo = default_mark(32)
@@ -51,13 +54,12 @@ def verify_read(
     *,
     key: str | bytes,
     ident: bytes | None,
-    any_id: bool,
     ident_text: str | None,
     fpr: float,
     expected: NDArray | None,
 ) -> None:
-    """:func:`verify_asset`'s verdict on one decoder, into ``row`` (an id is sought when
-    ``expected`` is None)."""
+    """:func:`~meshwm.watermark.assets.verify_asset`'s verdict on one decoder, into ``row``:
+    the id ``ident`` (any id when None) when ``expected`` is None, else the mark ``expected``."""
     r: Mapping[str, Any] = {}
     if expected is None:
         got = decoder.extract_id(key=key, expected=ident)
@@ -125,7 +127,3 @@ def _too_little_ink(mark: NDArray, *, fpr: float, hypotheses: int) -> str | None
         f"a mark with {ink} of its {bits.size} pixels inked cannot be told from other drawings "
         f"even read whole (p {best:.3g} at best): it needs more ink and paper both"
     )
-
-
-#: Why a verdict's p-value is 1: every image read every bit at zero confidence.
-_NOTHING_READ = "no image of this mesh read a bit of it (no slot, or reads at chance)"
