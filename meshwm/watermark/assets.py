@@ -26,6 +26,7 @@ from meshwm._validate import DEFAULT_MAX_FACES
 from meshwm.detect import DEFAULT_FPR, decide
 from meshwm.errors import CapacityError, GridError, MeshError
 from meshwm.mesh.asset import Asset
+from meshwm.mesh.edges import distinct_rows
 from meshwm.mesh.manifold import large_pieces
 from meshwm.message.mark import default_mark
 from meshwm.message.payload import PAYLOAD_BITS, id_text
@@ -289,12 +290,11 @@ def _together(
 
 def _touching(vertices: list[NDArray[np.float64]]) -> bool:
     """Whether two of the meshes have a vertex at exactly the same position (a border between
-    parts of one mesh, written once for each)."""
+    parts of one mesh, written once for each), as the file reader welds positions
+    (:func:`meshwm.mesh.asset.document.weld_rows`)."""
     owner = np.repeat(np.arange(len(vertices)), [len(v) for v in vertices])
-    _, first, inverse = np.unique(
-        np.concatenate(vertices), axis=0, return_index=True, return_inverse=True
-    )
-    return bool(np.any(owner[first][inverse.ravel()] != owner))
+    first, inverse = distinct_rows(np.concatenate(vertices) + 0.0)
+    return bool(np.any(owner[first][inverse] != owner))
 
 
 def _joined(
